@@ -1,0 +1,35 @@
+"""Shared test fixtures: the real CLI as a subprocess, and where ../shared is."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED = REPO.parent / "shared"
+
+
+@pytest.fixture(scope="session")
+def shared_dir():
+    """``../shared`` beside the checkout (CI has it); tests that need it fail without it."""
+    assert SHARED.is_dir(), f"../shared not found beside the checkout at {SHARED}"
+    return SHARED
+
+
+def run_vidtrack(*args, cwd=None, timeout=600, env=None):
+    """Run ``python -m vidtrack ARGS`` as a subprocess; return the CompletedProcess."""
+    full_env = dict(os.environ)
+    full_env.setdefault("MPLBACKEND", "Agg")
+    if env:
+        full_env.update(env)
+    return subprocess.run([sys.executable, "-m", "vidtrack", *map(str, args)],
+                          cwd=cwd, capture_output=True, text=True, timeout=timeout,
+                          env=full_env, stdin=subprocess.DEVNULL)
+
+
+@pytest.fixture
+def vidtrack_cli():
+    """The real command line, run as a subprocess: ``vidtrack_cli("anova", "t.csv")``."""
+    return run_vidtrack

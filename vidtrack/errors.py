@@ -1,0 +1,28 @@
+"""The exception family of vidtrack: bad input or usage (exit code 2 on the CLI)."""
+
+import calibration.errors
+import fits.errors
+
+
+class VidtrackError(Exception):
+    """Bad input or usage: one clear message (what, where, what was expected)."""
+
+
+class SceneError(VidtrackError):
+    """``scene.toml`` or ``experiment.toml`` is missing a key, has a bad value, etc."""
+
+
+class SourceError(VidtrackError):
+    """A frame source (video, image folder, .cine) is missing, unreadable or empty."""
+
+
+class TrackError(VidtrackError):
+    """A view could not be tracked (nothing moves, the straw never appears)."""
+
+
+class FitError(VidtrackError):
+    """A fit did not converge or the data cannot support it."""
+
+
+#: Every exception the command line reports as bad input (exit code 2).
+INPUT_ERRORS = (VidtrackError, fits.errors.InputError, calibration.errors.InputError)
