@@ -1,0 +1,123 @@
+"""Reading and checking a table of runs (CSV) for the ANOVA of a designed experiment."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from fits.errors import InputError
+
+
+def read_table(path):
+    """Read a CSV table of runs, every cell kept as text; nothing is modified.
+
+    Parameters
+    ----------
+    path : str or Path
+        A comma-separated file with a header row.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns as in the file (stripped of surrounding spaces), values as strings
+        (empty cells are NaN). ``df.attrs["source"]`` holds the file name for messages.
+
+    Raises
+    ------
+    InputError
+        The file is missing, unreadable, empty, or has duplicate column names.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such file")
+    try:
+        df = pd.read_csv(path, dtype=str, skipinitialspace=True)
+    except pd.errors.EmptyDataError:
+        raise InputError(f"{path}: the file is empty; expected a CSV table with a "
+                         "header row") from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise InputError(f"{path}: not a readable CSV table ({first})") from None
+    names = [str(c).strip() for c in df.columns]
+    dupes = sorted({n for n in names if names.count(n) > 1})
+    if dupes:
+        raise InputError(f"{path}: duplicate column name(s) {', '.join(dupes)}")
+    if any(n.startswith("Unnamed:") for n in names):
+        raise InputError(f"{path}: a column has an empty name in the header row")
+    df.columns = names
+    if len(df) == 0:
+        raise InputError(f"{path}: the table has a header but no rows")
+    df.attrs["source"] = str(path)
+    return df
+
+
+def source_of(table):
+    """The name used in messages for ``table`` (its file, or "table")."""
+    return table.attrs.get("source", "table")
+
+
+def require_columns(table, columns, *, what="column"):
+    """Raise InputError naming the first of ``columns`` that ``table`` lacks."""
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        have = ", ".join(map(str, table.columns))
+        raise InputError(f"{source_of(table)}: no {what} {missing[0]!r} "
+                         f"(the table has: {have})")
+
+
+def numeric_column(table, column):
+    """The values of ``column`` as float64, or InputError naming row and column.
+
+    Rows are numbered from 1 (the first data row); the file line is that plus one.
+    """
+    require_columns(table, [column])
+    values = table[column]
+    out = np.empty(len(values), dtype=float)
+    for i, v in enumerate(values):
+        where = f"{source_of(table)}: row {i + 1} (line {i + 2}), column {column!r}"
+        if v is None or (isinstance(v, float) and math.isnan(v)) or str(v).strip() == "":
+            raise InputError(f"{where}: the cell is empty; expected a number")
+        if isinstance(v, (int, float, np.integer, np.floating)):
+            x = float(v)
+        else:
+            try:
+                x = float(str(v).strip())
+            except ValueError:
+                raise InputError(f"{where}: {str(v)!r} is not a number") from None
+        if not math.isfinite(x):
+            raise InputError(f"{where}: {str(v)!r} is not a finite number")
+        out[i] = x
+    return out
+
+
+def label_column(table, column):
+    """The values of a categorical ``column`` as stripped strings (no empty cells)."""
+    require_columns(table, [column])
+    out = []
+    for i, v in enumerate(table[column]):
+        if v is None or (isinstance(v, float) and math.isnan(v)) or str(v).strip() == "":
+            raise InputError(f"{source_of(table)}: row {i + 1} (line {i + 2}), column "
+                             f"{column!r}: the cell is empty; expected a factor level")
+        out.append(str(v).strip())
+    return out
+
+
+def run_labels(table):
+    """Run labels for plots and messages: the ``run`` column if any, else 1..n."""
+    for name in ("run", "Run", "std", "Std"):
+        if name in table.columns:
+            return [str(v) for v in table[name]]
+    return [str(i + 1) for i in range(len(table))]
+
+
+def match_name(short, candidates):
+    """The candidate equal to ``short`` or starting with ``short + '_'`` (unit suffix).
+
+    ``rho0`` matches the column ``rho0_mm``, ``power`` matches ``power_kw``. Returns None
+    when nothing or more than one candidate matches.
+    """
+    if short in candidates:
+        return short
+    hits = [c for c in candidates if c.startswith(short + "_")]
+    return hits[0] if len(hits) == 1 else None
