@@ -10,6 +10,8 @@ from calibration.camera import (
     calibrate_checkerboard,
     calibration_to_dict,
     calibration_to_toml,
+    checkerboard_calibration,
+    compact_toml,
     distort_points,
     find_board,
     load_calibration,
@@ -29,7 +31,8 @@ __all__ = [
     # scale
     "Scale", "ruler_scale", "given_scale", "pixel_point",
     # camera
-    "CameraCalibration", "CalibrationFile", "calibrate_checkerboard", "find_board",
+    "CameraCalibration", "CalibrationFile", "calibrate_checkerboard",
+    "checkerboard_calibration", "compact_toml", "find_board",
     "board_points", "plane_scale", "undistort_points", "distort_points",
     "calibration_to_toml", "calibration_to_dict", "load_calibration", "parse_calibration",
     "read_calibration_images", "parse_pattern",

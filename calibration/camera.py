@@ -26,10 +26,11 @@ from calibration.errors import InputError
 from calibration.scale import Scale, ruler_scale
 
 __all__ = [
-    "CameraCalibration", "CalibrationFile", "calibrate_checkerboard", "find_board",
+    "CameraCalibration", "CalibrationFile", "calibrate_checkerboard",
+    "checkerboard_calibration", "find_board",
     "board_points", "plane_scale", "undistort_points", "distort_points",
     "calibration_to_toml", "calibration_to_dict", "load_calibration", "parse_calibration",
-    "read_calibration_images", "parse_pattern", "CALIBRATION_SCHEMA",
+    "read_calibration_images", "parse_pattern", "compact_toml", "CALIBRATION_SCHEMA",
 ]
 
 #: Version of the calibration file format written and read here.
@@ -413,7 +414,7 @@ def find_board(image, pattern, *, name="image"):
     return corners.reshape(-1, 2).astype(np.float64)
 
 
-def plane_scale(corners_px, pattern, square_m, *, camera=None, max_spread=0.02):
+def plane_scale(corners_px, pattern, square_m, *, camera=None, max_spread=0.01):
     """The metric scale of the board's plane from its corners in one image.
 
     Parameters
@@ -468,7 +469,8 @@ def plane_scale(corners_px, pattern, square_m, *, camera=None, max_spread=0.02):
     return Scale(m_per_px=float(square_m) * d.size / float(d.sum()), method="checkerboard")
 
 
-def calibrate_checkerboard(images, pattern, square_m, *, fix_k3=False, min_images=3):
+def calibrate_checkerboard(images, pattern, square_m, *, fix_k3=False, min_images=3,
+                           progress=None):
     """Camera intrinsics and distortion from views of a checkerboard.
 
     Parameters
@@ -484,6 +486,9 @@ def calibrate_checkerboard(images, pattern, square_m, *, fix_k3=False, min_image
         mild lens).
     min_images : int
         Fewest images with the board found (>= 3).
+    progress : callable, optional
+        ``progress(iterable, total)`` returning an iterable (a progress bar) that the
+        corner search loops over.
 
     Returns
     -------
@@ -513,7 +518,8 @@ def calibrate_checkerboard(images, pattern, square_m, *, fix_k3=False, min_image
     loaded = read_calibration_images(images)
     size = None
     used, rejected, image_pts = [], [], []
-    for name, img in loaded:
+    loop = progress(loaded, len(loaded)) if progress is not None else loaded
+    for name, img in loop:
         shape = img.shape[1::-1]
         if size is None:
             size = shape
@@ -557,6 +563,57 @@ def calibrate_checkerboard(images, pattern, square_m, *, fix_k3=False, min_image
     )
 
 
+def checkerboard_calibration(images, pattern, square_m, *, plane_image=None, fix_k3=False,
+                             progress=None):
+    """A calibration file's content from checkerboard images: camera, and plane scale.
+
+    Parameters
+    ----------
+    images : str, pathlib.Path, or sequence of (path or numpy.ndarray)
+        Calibration images (see :func:`calibrate_checkerboard`).
+    pattern : str or tuple of int
+        Inner corners, ``"9x6"``.
+    square_m : float
+        Side of a board square in m.
+    plane_image : str, pathlib.Path or numpy.ndarray, optional
+        An image of the board lying in the throw plane, parallel to the image plane
+        (it may be one of ``images``). When given, the file gets a ``[scale]`` table:
+        the plane's metres per undistorted pixel (:func:`plane_scale`).
+    fix_k3 : bool
+        Hold k3 at 0.
+    progress : callable, optional
+        As in :func:`calibrate_checkerboard`.
+
+    Returns
+    -------
+    CalibrationFile
+
+    Raises
+    ------
+    InputError
+        As :func:`calibrate_checkerboard`; the board not found in ``plane_image``, or
+        the board there not parallel to the image plane.
+    """
+    camera = calibrate_checkerboard(images, pattern, square_m, fix_k3=fix_k3,
+                                    progress=progress)
+    scale = None
+    if plane_image is not None:
+        ((name, img),) = read_calibration_images([plane_image])
+        if camera.image_size is not None and tuple(img.shape[1::-1]) != camera.image_size:
+            raise InputError(f"{name}: the plane image is {img.shape[1]}x{img.shape[0]} px but "
+                             f"the calibration images are {camera.image_size[0]}x"
+                             f"{camera.image_size[1]}")
+        corners = find_board(img, camera.pattern, name=name)
+        if corners is None:
+            raise InputError(f"{name}: the {camera.pattern[0]}x{camera.pattern[1]} board is "
+                             "not found in the plane image")
+        try:
+            scale = plane_scale(corners, camera.pattern, camera.square_m, camera=camera)
+        except InputError as exc:
+            raise InputError(f"{name}: {exc}") from None
+    return CalibrationFile(camera=camera, scale=scale)
+
+
 # --------------------------------------------------------------------------- files
 
 
@@ -584,6 +641,27 @@ def calibration_to_dict(*, camera=None, scale=None):
     return out
 
 
+_ARRAY_RE = re.compile(r"\[\n((?:[ ]+[^\[\]{}\n]*,\n)+)[ ]*\]")
+
+
+def compact_toml(text):
+    """Put tomli_w's one-item-per-line arrays of plain values on one line.
+
+    The result is checked to parse to the same content; if it would not, the text is
+    returned unchanged.
+    """
+    def join(m):
+        items = [line.strip().rstrip(",") for line in m.group(1).splitlines()]
+        return "[" + ", ".join(items) + "]"
+
+    compact = _ARRAY_RE.sub(join, text)
+    try:
+        same = tomllib.loads(compact) == tomllib.loads(text)
+    except tomllib.TOMLDecodeError:
+        same = False
+    return compact if same else text
+
+
 def calibration_to_toml(*, camera=None, scale=None):
     """A calibration file's text (TOML, schema 1); write it with an atomic writer.
 
@@ -602,7 +680,7 @@ def calibration_to_toml(*, camera=None, scale=None):
     head = ("# vidtrack calibration file (schema 1); see docs/calibration.md\n"
             "# [scale]: metres per pixel on the throw plane; [camera]: intrinsics and\n"
             "# distortion (OpenCV model, pixels).\n")
-    return head + tomli_w.dumps(calibration_to_dict(camera=camera, scale=scale))
+    return head + compact_toml(tomli_w.dumps(calibration_to_dict(camera=camera, scale=scale)))
 
 
 def _num(d, key, where, *, positive=False, nonneg=False, required=True):

@@ -149,7 +149,8 @@ def ruler_scale(length_m, from_px, to_px):
     b = pixel_point(to_px, "to_px")
     span = math.hypot(b[0] - a[0], b[1] - a[1])
     if not span > 0:
-        raise InputError(f"the ruler spans 0 pixels: from_px {list(a)} equals to_px {list(b)}")
+        raise InputError(f"the ruler spans 0 pixels: its two ends are the same point "
+                         f"({a[0]:g}, {a[1]:g})")
     return Scale(m_per_px=length / span, method="ruler", length_m=length,
                  from_px=a, to_px=b, span_px=span)
 
