@@ -120,7 +120,7 @@ class ViewMapping:
         Parameters
         ----------
         uv : array_like, shape (N, 2) or (2,)
-            Observed pixel positions (column, row); NaN rows give NaN.
+            Observed pixel positions (column, row); a row with a NaN gives a NaN row.
 
         Returns
         -------
@@ -142,8 +142,8 @@ class ViewMapping:
         Parameters
         ----------
         world : array_like, shape (N, 2) or (2,)
-            Coordinates in m, columns in world order (:attr:`world_axes`); NaN rows
-            give NaN.
+            Coordinates in m, columns in world order (:attr:`world_axes`); a row with
+            a NaN gives a NaN row.
 
         Returns
         -------
@@ -169,12 +169,14 @@ class ViewMapping:
 
 
 def _points(a, name):
-    arr = np.asarray(a, dtype=np.float64)
+    """(N, 2) float64 copy; a row with any NaN becomes all NaN (a point is whole or absent)."""
+    arr = np.array(a, dtype=np.float64)
     single = arr.ndim == 1
     if single:
         arr = arr[None, :]
     if arr.ndim != 2 or arr.shape[1] != 2:
         raise InputError(f"{name} must be an (N, 2) array, got shape {np.shape(a)}")
+    arr[np.isnan(arr).any(axis=1)] = np.nan
     return arr, single
 
 
