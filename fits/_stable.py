@@ -13,6 +13,9 @@ def _where_small(x, limit, series, direct):
     """Evaluate ``series`` where |x| < limit and ``direct`` elsewhere, without warnings."""
     x = np.asarray(x, dtype=float)
     small = np.abs(x) < limit
+    if not small.any():
+        with np.errstate(over="ignore"):     # sinh/x -> inf only where the caller discards it
+            return direct(x)
     out = np.empty_like(x)
     out[small] = series(x[small])
     big = ~small

@@ -1,0 +1,61 @@
+"""Run a named benchmark, write its CSV and PNG, and return the printable table."""
+
+import importlib.util
+from pathlib import Path
+
+from vidtrack._atomic import atomic_path, write_text
+
+
+def available():
+    """Benchmarks this installation can run (``track`` appears once its module exists)."""
+    names = ["model"]
+    for name in ("track", "fit"):
+        if importlib.util.find_spec(f"vidtrack.bench.{name}") is not None:
+            names.append(name)
+    return names
+
+
+def _write_csv(table, path):
+    with atomic_path(path) as tmp:
+        table.to_csv(tmp, index=False)
+
+
+def bench_model(out_dir, *, quick=False, progress=None):
+    """Throw models (and, when present, the blade slide): CSV, PNG and text."""
+    from vidtrack.bench import model
+
+    out_dir = Path(out_dir)
+    table = model.run_model_bench(quick=quick, progress=progress)
+    _write_csv(table, out_dir / "bench_model.csv")
+    with atomic_path(out_dir / "bench_model.png") as tmp:
+        model.plot_work_precision(table, tmp)
+    text = ["Throw model: max error against 50-digit truth and median time per "
+            "trajectory evaluation", "", model.format_table(table)]
+    if importlib.util.find_spec("vidtrack.bench.blade") is not None:
+        from vidtrack.bench.blade import run_blade_bench
+
+        blade = run_blade_bench()
+        _write_csv(blade, out_dir / "bench_blade.csv")
+        text += ["", "Blade slide (Chen 2018 eqs. 1-3): printed forms against the exact "
+                 "solution", "", blade.to_string(index=False)]
+    write_text(out_dir / "bench_model.txt", "\n".join(text) + "\n")
+    return "\n".join(text)
+
+
+def bench_track(out_dir, *, quick=False, progress=None):
+    """The tracker against decode-only, trackpy and an OpenCV tracker."""
+    from vidtrack.bench.track import run_track_bench
+
+    table = run_track_bench(out_dir, quick=quick)
+    return table.to_string(index=False)
+
+
+def bench_fit(out_dir, *, quick=False, progress=None):
+    """k error against frames used and run time; whole fit against plain decoding."""
+    from vidtrack.bench.fit import run_fit_bench
+
+    table = run_fit_bench(out_dir, quick=quick)
+    return table.to_string(index=False)
+
+
+RUNNERS = {"model": bench_model, "track": bench_track, "fit": bench_fit}
