@@ -270,6 +270,21 @@ class RsmFit:
         b = np.array([self.coefficients_coded[n] for n in self.coefficients_coded])
         return X @ b
 
+    def confidence_band(self, coded, *, level=0.95):
+        """Predicted mean at coded points and the half-width of its confidence interval.
+
+        Returns ``(yhat, half)``: ``half = t(level, df_res) sqrt(x' C x)`` with ``C`` the
+        coded covariance (NaN without residual degrees of freedom).
+        """
+        import scipy.stats
+
+        coded = np.atleast_2d(np.asarray(coded, dtype=float))
+        X = model_matrix(coded, self._exponents[1:])
+        var = np.einsum("ij,jk,ik->i", X, self.covariance_coded, X)
+        df = self.anova["residual"].df
+        t = scipy.stats.t.ppf(0.5 + level / 2.0, df) if df > 0 else np.nan
+        return self.predict_coded(coded), t * np.sqrt(np.maximum(var, 0.0))
+
     def predict(self, natural):
         """Predicted response at natural settings: a mapping of factor name to value(s)."""
         missing = [f.name for f in self.factors if f.name not in natural]

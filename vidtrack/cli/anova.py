@@ -194,9 +194,10 @@ def run(args):
                 if c.rows_for(fit.response):
                     block += "\n\n" + c.summary(fit.response)
             blocks.append(block)
+        text = ("\n\n" + "=" * 78 + "\n\n").join(blocks)
         for c in comparisons:
-            blocks += [f"Note ({c.source}): {n}" for n in c.notes]
-        print(("\n\n" + "=" * 78 + "\n\n").join(blocks))
+            text += "".join(f"\nNote ({c.source}): {n}" for n in c.notes)
+        print(text)
         if args.report:
             print(f"\nReport written to {args.report}")
     return 0
