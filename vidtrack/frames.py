@@ -451,11 +451,13 @@ class VideoSource(FrameSource):
         return grey
 
     def _skip(self, cap, start, stop):
+        """Decode past frames ``start .. stop - 1`` on the way to frame ``stop``."""
         for k in range(start, stop):
             if not cap.grab():
                 raise SourceError(
-                    f"{self.path}: frame {k} could not be decoded (the container says "
-                    f"{self._n_file} frames; the file is truncated or corrupt)")
+                    f"{self.path}: frame {stop} could not be read: frame {k} could not be "
+                    f"decoded (the container says {self._n_file} frames; the file is truncated "
+                    "or corrupt)")
 
     def _read_sequential(self, k):
         """Frame ``k`` by decoding from the current position (or from the start)."""
