@@ -415,9 +415,9 @@ def _natural_key(text):
 def _show(value):
     if isinstance(value, str):
         return repr(value)
-    if isinstance(value, dict):
-        return "a table"
-    return json.dumps(value, default=str) if isinstance(value, list) else repr(value)
+    if isinstance(value, (list, dict)):
+        return json.dumps(value, default=str)
+    return repr(value)
 
 
 def _type_name(value):
@@ -454,10 +454,11 @@ class _Checker:
             self.fail(path, f"must be a table, got {_type_name(value)} {_show(value)}")
         return value
 
-    def number(self, table, key, path, *, required=False, default=None, gt=None, ge=None):
+    def number(self, table, key, path, *, required=False, default=None, gt=None, ge=None,
+               what=None):
         if key not in table:
             if required:
-                self.fail(path, "is required")
+                self.fail(path, f"is required: {what}" if what else "is required")
             return default
         value = table[key]
         if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -470,10 +471,10 @@ class _Checker:
             self.fail(path, f"must be >= {ge}, got {value}")
         return float(value)
 
-    def string(self, table, key, path, *, required=False, default=None):
+    def string(self, table, key, path, *, required=False, default=None, what=None):
         if key not in table:
             if required:
-                self.fail(path, "is required")
+                self.fail(path, f"is required: {what}" if what else "is required")
             return default
         value = table[key]
         if not isinstance(value, str):
@@ -617,8 +618,11 @@ def _parse_view(ck, name, view, folder):
     if not isinstance(view, dict):
         ck.fail(path, f"must be a table, got {_type_name(view)} {_show(view)}")
     ck.keys(view, _VIEW_KEYS, path)
-    source_text = ck.string(view, "source", f"{path}.source", required=True)
-    fps = ck.number(view, "fps", f"{path}.fps", required=True, gt=0)
+    source_text = ck.string(view, "source", f"{path}.source", required=True,
+                            what="the footage (video file, image folder or .cine), e.g. "
+                                 f"\"{name}.avi\"")
+    fps = ck.number(view, "fps", f"{path}.fps", required=True, gt=0,
+                    what="the capture rate in frames/s, e.g. 1200")
     if "axes" not in view:
         ck.fail(f"{path}.axes", f"is required: the world axes along image column and row, "
                 f"e.g. {_example_axes(name)}")
