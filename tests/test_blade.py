@@ -238,3 +238,17 @@ def test_to_dict_is_json_and_bad_settings_are_refused():
         BladeSetting(550, 0, friction=-0.1)
     with pytest.raises(InputError, match="method"):
         release(BladeSetting(550, 0), method="rk4")
+
+
+def test_blade_bench_table():
+    from vidtrack.bench.blade import CASES, run_blade_bench
+
+    table = run_blade_bench(cases=CASES[:1], budget_s=0.01)
+    assert list(table.columns) == ["case", "method", "max_error_m", "error_at_release_m",
+                                   "release_time_s", "release_time_error_s",
+                                   "time_per_eval_s"]
+    rows = table.set_index("method")
+    assert rows.loc["exact closed form (vidtrack)", "max_error_m"] < 1e-14
+    assert rows.loc["eq. 2 as printed", "max_error_m"] == pytest.approx(1.356e-3, rel=1e-3)
+    assert rows.loc["eq. 3 series (paper)", "error_at_release_m"] > 0.05
+    assert rows.loc["solve_ivp DOP853 rtol 1e-12", "max_error_m"] < 1e-11
