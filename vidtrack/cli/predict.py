@@ -149,7 +149,7 @@ def _summary(d):
         if c["stderr"] is not None:
             extra = (f"  +- {c['stderr']:.3g} (se)  95% CI [{c['ci95'][0]:.4g}, "
                      f"{c['ci95'][1]:.4g}]")
-        lines.append(f"  {name} = {c['value']:.4g}{extra}")
+        lines.append(f"  {name} = {c['value']:#.4g}{extra}")
     r = d["release"]
     lines.append(f"release ({r['method']} slide): t0 = {1e3 * r['release_time_s']:.2f} ms, "
                  f"blade turned {r['rotation_deg']:.1f} deg")
