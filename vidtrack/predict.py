@@ -638,7 +638,7 @@ def _check_release_above_ground(state, shaft_height_m):
         raise InputError(
             f"the release point y0 = {state[1]:.4g} m lies at or below the ground plane "
             f"y = {-shaft_height_m:.4g} m (shaft height {shaft_height_m:g} m): the tip "
-            "releases the straw in the soil; raise --shaft-height-m or change the phase")
+            "releases the straw in the soil; raise the shaft height or change the phase")
 
 
 def throw_trajectory(state, k, cp, *, v1_m_s, shaft_height_m, inlet_x_m=None,
