@@ -1,0 +1,132 @@
+"""fits.lsq against tracks with known truth (made by fits.throw and an independent ODE)."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from fits.errors import InputError
+from fits.lsq import compare_models, fit_throw
+from fits.throw import position
+from fits.throw_ode import solve_throw
+
+STATE = (0.25, 0.15, 0.0, 7.0, 4.5, 2.0)
+K = (2.2, 2.5, 4.6, 21.3)
+CP, V1, FPS = 0.115, 2.0, 1200
+
+
+def track(t, xyz):
+    return pd.DataFrame({"t_s": t, "x_m": xyz[:, 0], "y_m": xyz[:, 1], "z_m": xyz[:, 2]})
+
+
+def noisy_track(seed, *, sigma=0.0015, t_end=0.4, state=STATE, k=K, cp=CP, model="quadratic"):
+    t = np.arange(0, t_end, 1 / FPS)
+    rng = np.random.default_rng(seed)
+    xyz = position(t, state, k, cp, v1=V1, model=model)
+    return track(t, xyz + rng.normal(0, sigma, xyz.shape))
+
+
+def test_exact_track_from_the_ode_gives_exact_coefficients():
+    t = np.arange(0, 0.4, 1 / FPS)
+    xyz = solve_throw(t, STATE, K, CP, v1=V1)          # an independent solution
+    fit = fit_throw(track(t, xyz), CP, v1=V1)
+    for name, truth in zip(("k1", "k2", "k3", "k4"), K):
+        c = fit.coefficients[name]
+        assert c.determined and c.value == pytest.approx(truth, rel=1e-6)
+    s = fit.initial_state
+    assert s["vx0_m_s"] == pytest.approx(7.0, rel=1e-7)
+    assert s["vz0_m_s"] == pytest.approx(2.0, rel=1e-6)
+
+
+def test_noisy_track_within_published_accuracy():
+    fit = fit_throw(noisy_track(3), CP, v1=V1)
+    for name, truth, tol in zip(("k1", "k2", "k3", "k4"), K, (0.03, 0.03, 0.03, 0.05)):
+        assert fit.coefficients[name].value == pytest.approx(truth, rel=tol)
+    rms = fit.residual_rms_m
+    assert all(0.001 < rms[a] < 0.002 for a in "xyz")        # the noise put in: 1.5 mm
+
+
+@pytest.mark.slow
+def test_intervals_cover_the_truth():
+    """95 % intervals from the Jacobian cover the truth in >= 90 % of 40 seeded runs."""
+    hits = np.zeros(4)
+    for seed in range(40):
+        fit = fit_throw(noisy_track(100 + seed), CP, v1=V1)
+        for i, (name, truth) in enumerate(zip(("k1", "k2", "k3", "k4"), K)):
+            lo, hi = fit.coefficients[name].ci95
+            hits[i] += lo <= truth <= hi
+    assert np.all(hits >= 36), f"coverage per k: {hits / 40}"
+
+
+def test_bootstrap_errors_agree_with_jacobian_errors():
+    data = noisy_track(5, t_end=0.3)
+    jac = fit_throw(data, CP, v1=V1)
+    boot = fit_throw(data, CP, v1=V1, bootstrap=60, rng=np.random.default_rng(0))
+    for name in ("k1", "k3"):
+        ratio = boot.coefficients[name].stderr / jac.coefficients[name].stderr
+        assert 0.6 < ratio < 1.6
+
+
+def test_front_view_only_leaves_k4_undetermined():
+    data = noisy_track(1)
+    data["z_m"] = np.nan
+    fit = fit_throw(data, CP, v1=V1)
+    assert not fit.coefficients["k4"].determined
+    assert fit.coefficients["k4"].value is None
+    assert "top view" in fit.coefficients["k4"].reason
+    assert fit.coefficients["k3"].determined
+
+
+def test_no_descent_in_view_leaves_k2_undetermined():
+    data = noisy_track(2, t_end=0.15)              # the apex is at 0.19 s
+    fit = fit_throw(data, CP, v1=V1)
+    assert not fit.coefficients["k2"].determined
+    assert "no descent" in fit.coefficients["k2"].reason
+    assert fit.coefficients["k1"].value == pytest.approx(2.2, rel=0.03)
+
+
+def test_thrown_downward_leaves_k1_undetermined():
+    state = (0.25, 0.15, 0.0, 7.0, -2.0, 2.0)
+    fit = fit_throw(noisy_track(4, state=state, sigma=0.0005), CP, v1=V1)
+    assert not fit.coefficients["k1"].determined
+    assert "no ascent" in fit.coefficients["k1"].reason
+    assert fit.coefficients["k2"].value == pytest.approx(2.5, rel=0.05)
+
+
+def test_drag_free_scene_fits_gravity_multipliers():
+    k = (1.3, 0.9, 1.0, 1.0)
+    data = noisy_track(6, cp=0.0, k=k, t_end=0.8, sigma=0.001)
+    fit = fit_throw(data, 0.0, v1=V1)
+    assert fit.coefficients["k1"].value == pytest.approx(1.3, rel=0.02)
+    assert fit.coefficients["k2"].value == pytest.approx(0.9, rel=0.02)
+    for name in ("k3", "k4"):
+        assert not fit.coefficients[name].determined
+        assert "Cp = 0" in fit.coefficients[name].reason
+
+
+def test_information_criterion_prefers_the_true_model():
+    data = noisy_track(7, sigma=0.0005, t_end=0.5)
+    ranking = compare_models(data, CP, v1=V1)
+    assert ranking[0][0] == "quadratic"
+    lin = noisy_track(8, sigma=0.0005, t_end=0.5, model="linear", cp=0.3)
+    assert compare_models(lin, 0.3, v1=V1)[0][0] == "linear"
+
+
+def test_predict_reproduces_the_fit():
+    data = noisy_track(9)
+    fit = fit_throw(data, CP, v1=V1)
+    resid = fit.predict(data.t_s) - data[["x_m", "y_m", "z_m"]].to_numpy()
+    assert np.sqrt(np.mean(resid**2)) == pytest.approx(0.0015, rel=0.1)
+
+
+@pytest.mark.parametrize("change, word", [
+    (lambda d: d.drop(columns="y_m"), "y_m"),
+    (lambda d: d.assign(x_m=np.nan, y_m=np.nan, z_m=np.nan), "no axis"),
+])
+def test_bad_tracks_are_refused(change, word):
+    with pytest.raises(InputError, match=word):
+        fit_throw(change(noisy_track(0)), CP, v1=V1)
+
+
+def test_bad_cp_is_refused():
+    with pytest.raises(InputError, match="cp"):
+        fit_throw(noisy_track(0), -0.1, v1=V1)
