@@ -178,7 +178,8 @@ def test_interpolated_colour_is_converted_to_luma(tmp_path):
         path = write_cine(tmp_path / f"c{bits}.cine", bgr, fps=500, bit_depth=bits)
         luma = 0.114 * bgr[..., 0] + 0.587 * bgr[..., 1] + 0.299 * bgr[..., 2]  # BT.601
         with open_source(path) as src:
-            assert src.shape == (10, 14) and src.to_dict()["layout"] == f"bgr{8 if bits == 8 else 16}"
+            layout = "bgr8" if bits == 8 else "bgr16"
+            assert src.shape == (10, 14) and src.to_dict()["layout"] == layout
             for k, f in enumerate(src):
                 assert np.abs(f - luma[k]).max() <= 1.0
 

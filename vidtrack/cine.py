@@ -319,8 +319,8 @@ class CineSource(FrameSource):
         bits, samples, packed = _LAYOUTS[layout]
         self._row_bytes = self._cols * bits // 8
         if packed and (self._rows * self._cols * bits) % 8:
-            raise self._fail(f"packed {bits}-bit images of {self._cols} x {self._rows} pixels do not "
-                             "fill whole bytes")
+            raise self._fail(f"packed {bits}-bit images of {self._cols} x {self._rows} pixels "
+                             "do not fill whole bytes")
         padded = (self._cols * bits + 31) // 32 * 4
         if size == self._expected_bytes(layout):
             self._stride = self._row_bytes
@@ -329,8 +329,8 @@ class CineSource(FrameSource):
         else:
             raise self._fail(
                 f"frame 0 (image number {self.header['first_image_no']}): image size {size} bytes, "
-                f"expected {self._expected_bytes(layout)} for {self._cols} x {self._rows} pixels of "
-                f"{bits} bits")
+                f"expected {self._expected_bytes(layout)} for {self._cols} x {self._rows} pixels "
+                f"of {bits} bits")
         self._image_bytes = size
         if layout in ("u8", "bgr8"):
             self._dtype, depth = np.dtype(np.uint8), 8
@@ -586,7 +586,8 @@ def write_cine(path, frames, *, fps, bit_depth=8, packed=False, first_image_no=0
     first = np.asarray(frames[0])
     colour = first.ndim == 3 and first.shape[2] == 3
     if first.ndim != 2 and not colour:
-        raise ValueError(f"frames must be (rows, cols) grey or (rows, cols, 3) BGR, got {first.shape}")
+        raise ValueError("frames must be (rows, cols) grey or (rows, cols, 3) BGR, got "
+                         f"{first.shape}")
     if colour and packed:
         raise ValueError("packed storage is for grey frames only")
     rows, cols = first.shape[:2]

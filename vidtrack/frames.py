@@ -167,8 +167,8 @@ class FrameSource:
         RealBPP, e.g. 10, 12 or 14 in 16-bit words).
     fps : float or None
         Capture rate in frames/s: the given ``fps``, else for a .cine with time stamps
-        the rate they show, else the container's. When a .cine's time
-        stamps are used, the times come from them, not from ``fps``.
+        the rate they show, else the container's. When a .cine's time stamps are used,
+        the times come from them, not from ``fps``.
     fps_container : float or None
         The rate the file claims (video container rate, .cine setup FrameRate); None
         for image folders.
@@ -701,9 +701,9 @@ class ImageFolderSource(FrameSource):
     def _mismatch(self, path, shape, dtype):
         first = self._files[0]
         return SourceError(
-            f"{path}: image is {shape[1]}x{shape[0]} {np.dtype(dtype)}, but {first.name} (the first "
-            f"image) is {self._shape[1]}x{self._shape[0]} {self._dtype}: an image folder needs one "
-            "size and bit depth")
+            f"{path}: image is {shape[1]}x{shape[0]} {np.dtype(dtype)}, but {first.name} "
+            f"(the first image) is {self._shape[1]}x{self._shape[0]} {self._dtype}: an image "
+            "folder needs one size and bit depth")
 
     def _check_all(self):
         bits0 = 8 * self._dtype.itemsize
