@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from calibration.errors import InputError
-from calibration.scale import Scale, ruler_scale
+from calibration.scale import Scale, _point_array, ruler_scale
 
 __all__ = [
     "CameraCalibration", "CalibrationFile", "calibrate_checkerboard",
@@ -150,17 +150,6 @@ class CalibrationFile:
 # --------------------------------------------------------------------------- points
 
 
-def _as_points(uv, name="points"):
-    arr = np.asarray(uv, dtype=np.float64)
-    single = arr.ndim == 1
-    if single:
-        arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != 2:
-        raise InputError(f"{name} must be an (N, 2) array of pixel positions (u, v), "
-                         f"got shape {np.shape(uv)}")
-    return arr, single
-
-
 def _criteria():
     import cv2
 
@@ -191,7 +180,7 @@ def undistort_points(uv, camera):
     """
     import cv2
 
-    pts, single = _as_points(uv)
+    pts, single = _point_array(uv, 2, "uv")
     out = np.full_like(pts, np.nan)
     ok = np.all(np.isfinite(pts), axis=1)
     if ok.any():
@@ -226,7 +215,7 @@ def distort_points(uv, camera):
     """
     import cv2
 
-    pts, single = _as_points(uv)
+    pts, single = _point_array(uv, 2, "uv")
     out = np.full_like(pts, np.nan)
     ok = np.all(np.isfinite(pts), axis=1)
     if ok.any():

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calibration.errors import InputError
+from calibration.scale import _point_array
 
 __all__ = ["DLT", "estimate_dlt", "project", "triangulate", "reconstruct_with_known"]
 
@@ -92,16 +93,6 @@ class DLT:
         return out
 
 
-def _array(a, width, name):
-    arr = np.asarray(a, dtype=np.float64)
-    single = arr.ndim == 1
-    if single:
-        arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != width:
-        raise InputError(f"{name} must be an (N, {width}) array, got shape {np.shape(a)}")
-    return arr, single
-
-
 def _normaliser(pts):
     """Similarity T (homogeneous) taking pts to centroid 0, mean distance sqrt(dim)."""
     dim = pts.shape[1]
@@ -142,8 +133,8 @@ def estimate_dlt(xyz, uv):
     A p = 0 (two rows per point) is solved by SVD (the right singular vector of the
     smallest singular value), then denormalised.
     """
-    X, _ = _array(xyz, 3, "xyz")
-    x, _ = _array(uv, 2, "uv")
+    X, _ = _point_array(xyz, 3, "xyz")
+    x, _ = _point_array(uv, 2, "uv")
     if len(X) != len(x):
         raise InputError(f"xyz has {len(X)} points but uv has {len(x)}")
     if len(X) < 6:
@@ -189,7 +180,7 @@ def project(dlt, xyz):
         Pixels (u, v); NaN for points in the camera's focal plane (denominator 0) and
         for NaN input.
     """
-    X, single = _array(xyz, 3, "xyz")
+    X, single = _point_array(xyz, 3, "xyz")
     P = dlt.matrix
     h = X @ P[:, :3].T + P[:, 3]
     w = h[:, 2]
@@ -238,7 +229,7 @@ def triangulate(dlts, uvs):
     out); the stacked 2m x 3 system is solved per point through its SVD.
     """
     dlts = list(dlts)
-    uvs = [_array(a, 2, "uv")[0] for a in uvs]
+    uvs = [_point_array(a, 2, "uv")[0] for a in uvs]
     if len(dlts) < 2:
         raise InputError(f"triangulation needs at least two cameras, got {len(dlts)}")
     if len(uvs) != len(dlts):
@@ -289,7 +280,7 @@ def reconstruct_with_known(dlt, uv, axis, value):
     """
     if axis not in _AXES:
         raise InputError(f"axis must be one of x, y, z, got {axis!r}")
-    pts, single = _array(uv, 2, "uv")
+    pts, single = _point_array(uv, 2, "uv")
     n = len(pts)
     vals = np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)) \
         if np.ndim(value) == 0 else np.asarray(value, dtype=np.float64)

@@ -71,6 +71,20 @@ def _finite_number(value, name):
     return value
 
 
+def _point_array(a, width, name):
+    """``a`` as an (N, width) float64 copy, and whether it was a single point (width,).
+
+    Raises InputError for any other shape. The one array check of the package.
+    """
+    arr = np.array(a, dtype=np.float64)
+    single = arr.ndim == 1
+    if single:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != width:
+        raise InputError(f"{name} must be an (N, {width}) array, got shape {np.shape(a)}")
+    return arr, single
+
+
 def pixel_point(value, name="point"):
     """Parse a pixel point: a pair of numbers, or a string ``"u,v"``.
 

@@ -12,12 +12,14 @@ World coordinates come back in the order of the world axes (x before y before z)
 whatever the order of ``axes``: a front view gives columns (x, y), a top view (x, z).
 """
 
+import json
 from dataclasses import dataclass
 
 import numpy as np
 
 from calibration.camera import CameraCalibration, distort_points, undistort_points
 from calibration.errors import InputError
+from calibration.scale import _point_array
 
 __all__ = ["ViewMapping", "parse_axes", "view_mapping", "pixel_to_world", "world_to_pixel",
            "AXIS_NAMES"]
@@ -45,16 +47,23 @@ def parse_axes(axes):
     InputError
         Not two of the names above, or both on the same world axis.
     """
-    if isinstance(axes, str) or not hasattr(axes, "__len__") or len(axes) != 2:
-        raise InputError(f"axes must be two signed world axes like ['+x', '-y'], got {axes!r}")
-    out = []
-    for a in axes:
-        if not isinstance(a, str) or a.strip().lower() not in AXIS_NAMES:
-            raise InputError(f"axes must be two of {', '.join(AXIS_NAMES)}, got {list(axes)!r}")
-        out.append(a.strip().lower())
+    names = ", ".join(f'"{a}"' for a in AXIS_NAMES)
+    ok = not isinstance(axes, str) and hasattr(axes, "__len__") and len(axes) == 2 and all(
+        isinstance(a, str) and a.strip().lower() in AXIS_NAMES for a in axes)
+    if not ok:
+        raise InputError(f"axes must be two of {names}, e.g. [\"+x\", \"-y\"], "
+                         f"got {_show(axes)}")
+    out = tuple(a.strip().lower() for a in axes)
     if out[0][1] == out[1][1]:
-        raise InputError(f"axes must be two different world axes, got {list(axes)!r}")
-    return tuple(out)
+        raise InputError(f"axes must be two different world axes, got {_show(axes)}")
+    return out
+
+
+def _show(value):
+    try:
+        return json.dumps(list(value)) if not isinstance(value, str) else json.dumps(value)
+    except TypeError:
+        return repr(value)
 
 
 @dataclass(frozen=True)
@@ -170,12 +179,7 @@ class ViewMapping:
 
 def _points(a, name):
     """(N, 2) float64 copy; a row with any NaN becomes all NaN (a point is whole or absent)."""
-    arr = np.array(a, dtype=np.float64)
-    single = arr.ndim == 1
-    if single:
-        arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != 2:
-        raise InputError(f"{name} must be an (N, 2) array, got shape {np.shape(a)}")
+    arr, single = _point_array(a, 2, name)
     arr[np.isnan(arr).any(axis=1)] = np.nan
     return arr, single
 

@@ -14,6 +14,7 @@ reads an experiment folder's ``experiment.toml``. Every key is documented in
 ``docs/scene.md``.
 """
 
+import dataclasses
 import difflib
 import hashlib
 import json
@@ -23,6 +24,10 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
+from calibration.errors import InputError
+from calibration.views import parse_axes
 from vidtrack.errors import SceneError
 
 __all__ = [
@@ -47,7 +52,6 @@ CP_TOLERANCE = 0.01
 _TOP_KEYS = ("schema", "run", "factors", "physics", "straw", "machine", "views")
 _VIEW_KEYS = ("source", "fps", "axes", "origin_px", "ruler", "m_per_px", "calibration",
               "frames", "sync_frame")
-_AXIS_NAMES = ("+x", "-x", "+y", "-y", "+z", "-z")
 
 
 # --------------------------------------------------------------------------- results
@@ -545,7 +549,6 @@ def _parse_straw(ck, data, physics):
 
 def _parse_scale(ck, view, path, folder):
     """The view's scale, camera and the raw entries (ruler, m_per_px, calibration)."""
-    from calibration.errors import InputError
     from calibration.scale import Scale, given_scale, ruler_scale
 
     ruler = None
@@ -626,14 +629,10 @@ def _parse_view(ck, name, view, folder):
     if "axes" not in view:
         ck.fail(f"{path}.axes", f"is required: the world axes along image column and row, "
                 f"e.g. {_example_axes(name)}")
-    axes = view["axes"]
-    if not isinstance(axes, list) or len(axes) != 2 or any(
-            not isinstance(a, str) or a.strip().lower() not in _AXIS_NAMES for a in axes):
-        ck.fail(f"{path}.axes", f"must be two of {', '.join(repr(a) for a in _AXIS_NAMES)}, "
-                f"e.g. {_example_axes(name)}, got {_show(axes)}")
-    axes = tuple(a.strip().lower() for a in axes)
-    if axes[0][1] == axes[1][1]:
-        ck.fail(f"{path}.axes", f"must be two different world axes, got {_show(list(axes))}")
+    try:
+        axes = parse_axes(view["axes"])
+    except InputError as exc:
+        ck.fail(f"{path}.axes", str(exc).removeprefix("axes "))
     want = VIEW_AXES[name]
     if tuple(sorted(a[1] for a in axes)) != want:
         ck.fail(f"{path}.axes", f"must be the world axes {want[0]} and {want[1]} (the {name} "
@@ -763,9 +762,7 @@ def parse_scene(data, *, folder, label=SCENE_FILE, path=None):
                     "scale": v.scale.to_dict() if v.scale is not None else None}
              for name, v in views.items() if v.calibration is not None}
     digest = _canonical_hash({"scene": scene.to_dict(), "calibration": calib})
-    return Scene(path=scene.path, folder=scene.folder, run_name=run_name, factors=factors,
-                 physics=physics, straw=straw, machine_speed_kmh=speed,
-                 machine_speed_from=speed_from, views=views, hash=digest)
+    return dataclasses.replace(scene, hash=digest)
 
 
 def _scene_path(run_dir_or_toml):
@@ -861,17 +858,13 @@ def find_throw_dirs(run_dir):
 
 def _plain(obj, path="scene"):
     """Numpy scalars, tuples and paths to what TOML can hold; None entries dropped."""
-    try:
-        import numpy as np
-    except ImportError:  # pragma: no cover - numpy is a dependency
-        np = None
     if isinstance(obj, dict):
         return {str(k): _plain(v, f"{path}.{k}") for k, v in obj.items() if v is not None}
     if isinstance(obj, (list, tuple)):
         return [_plain(v, path) for v in obj]
-    if np is not None and isinstance(obj, np.ndarray):
+    if isinstance(obj, np.ndarray):
         return [_plain(v, path) for v in obj.tolist()]
-    if np is not None and isinstance(obj, np.generic):
+    if isinstance(obj, np.generic):
         return obj.item()
     if isinstance(obj, Path):
         return obj.as_posix()
@@ -1021,5 +1014,4 @@ def load_experiment(exp_dir):
             ck.fail("factors", f"name {n!r} is used by two factors")
     exp = Experiment(path=path, folder=path.parent, design=design, responses=tuple(resp),
                      runs=runs, factors=factors)
-    return Experiment(path=path, folder=path.parent, design=design, responses=tuple(resp),
-                      runs=runs, factors=factors, hash=_canonical_hash(exp.to_dict()))
+    return dataclasses.replace(exp, hash=_canonical_hash(exp.to_dict()))
