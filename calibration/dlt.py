@@ -54,7 +54,7 @@ class DLT:
         object.__setattr__(self, "params", tuple(float(v) for v in p))
 
     @classmethod
-    def from_matrix(cls, matrix, **info):
+    def from_matrix(cls, matrix, *, rms_px=None, n_points=0, condition=None):
         """Build from a 3x4 projection matrix (scaled so its last element is 1).
 
         Raises
@@ -71,7 +71,8 @@ class DLT:
             raise InputError("the world origin lies in the camera's focal plane: the "
                              "11-parameter DLT cannot represent this camera (move the origin)")
         P = P / P[2, 3]
-        return cls(params=tuple(np.concatenate([P[0], P[1], P[2, :3]])), **info)
+        return cls(params=tuple(np.concatenate([P[0], P[1], P[2, :3]])), rms_px=rms_px,
+                   n_points=n_points, condition=condition)
 
     @property
     def matrix(self):
