@@ -5,8 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.stats
-import statsmodels.api as sm
+import scipy.special
 
 
 @dataclass(frozen=True)
@@ -41,11 +40,16 @@ def ratio(num, den):
     return num / den
 
 
+def f_sf(f, dfn, dfd):
+    """Upper-tail probability of the F distribution (scipy's cephes ``fdtrc``)."""
+    return float(scipy.special.fdtrc(dfn, dfd, f))
+
+
 def f_row(ss, df, ms_error, df_error):
     """An ANOVA row tested against an error mean square (F and its upper-tail p)."""
     ms = ratio(ss, df)
     f = ratio(ms, ms_error) if ms is not None else None
-    p = float(scipy.stats.f.sf(f, df, df_error)) if f is not None and df_error > 0 else None
+    p = f_sf(f, df, df_error) if f is not None and df_error > 0 else None
     return AnovaRow(ss=float(ss), df=int(df), ms=ms, f=f, p=p)
 
 
@@ -73,15 +77,16 @@ class LeastSquares:
 
 
 def least_squares(X, y):
-    """Fit ``y = X b`` by OLS (statsmodels, QR) and return a :class:`LeastSquares`.
+    """Fit ``y = X b`` by ordinary least squares through the QR factorisation of ``X``.
 
-    ``X`` must have full column rank (the caller checks aliasing first).
+    ``X`` must have full column rank (the caller checks aliasing first). ``(X'X)^-1`` is
+    ``R^-1 R^-T`` and the leverages are the row sums of ``Q**2``; ``X'X`` itself is never
+    formed or inverted.
     """
     X = np.asarray(X, dtype=float)
     y = np.asarray(y, dtype=float)
-    res = sm.OLS(y, X).fit(method="qr")
-    params = np.asarray(res.params, dtype=float)
     Q, R = np.linalg.qr(X)
+    params = scipy.linalg.solve_triangular(R, Q.T @ y)
     Rinv = scipy.linalg.solve_triangular(R, np.eye(R.shape[0]))
     xtx_inv = Rinv @ Rinv.T
     fitted = X @ params
@@ -102,7 +107,7 @@ def term_pvalues(fit):
             out[j] = 0.0 if b != 0.0 else 1.0
             continue
         f = b * b / (diag[j] * mse)
-        out[j] = float(scipy.stats.f.sf(f, 1, fit.df_resid))
+        out[j] = f_sf(f, 1, fit.df_resid)
     return out
 
 

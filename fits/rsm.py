@@ -276,13 +276,13 @@ class RsmFit:
         Returns ``(yhat, half)``: ``half = t(level, df_res) sqrt(x' C x)`` with ``C`` the
         coded covariance (NaN without residual degrees of freedom).
         """
-        import scipy.stats
+        import scipy.special
 
         coded = np.atleast_2d(np.asarray(coded, dtype=float))
         X = model_matrix(coded, self._exponents[1:])
         var = np.einsum("ij,jk,ik->i", X, self.covariance_coded, X)
         df = self.anova["residual"].df
-        t = scipy.stats.t.ppf(0.5 + level / 2.0, df) if df > 0 else np.nan
+        t = scipy.special.stdtrit(df, 0.5 + level / 2.0) if df > 0 else np.nan
         return self.predict_coded(coded), t * np.sqrt(np.maximum(var, 0.0))
 
     def predict(self, natural):
@@ -623,22 +623,25 @@ def fit_rsm(table, response, factors, *, terms=None, alpha=0.05, eliminate=True,
 def default_factors(table):
     """Factors from coded columns ``A``, ``B``, ``C``, ... when no coding is given.
 
-    The table's consecutive single-letter columns from ``A`` are taken as coded factors
-    with centre 0 and step 1 (natural units = coded units, named by the letter).
+    Every single-capital-letter column is taken as a coded factor with centre 0 and
+    step 1 (natural units = coded units, named by the letter); they must run from ``A``
+    without a gap.
 
     Raises
     ------
     InputError
-        The table has no column ``A``.
+        The table has no column ``A``, or a letter is missing (``A`` and ``C`` but no
+        ``B``).
     """
-    factors = []
-    for i in range(26):
-        letter = chr(ord("A") + i)
-        if letter not in table.columns:
-            break
-        factors.append(Factor(letter, letter, 0.0, 1.0))
-    if not factors:
+    letters = sorted(c for c in table.columns if len(c) == 1 and "A" <= c <= "Z")
+    if not letters:
         raise InputError(f"{source_of(table)}: no factors: give --factor LETTER=COLUMN:"
                          "CENTRE:STEP for each factor (the table has no coded columns A, "
                          "B, ...)")
-    return factors
+    for i, letter in enumerate(letters):
+        expected = chr(ord("A") + i)
+        if letter != expected:
+            raise InputError(f"{source_of(table)}: no column for factor {expected} (coded "
+                             f"columns found: {', '.join(letters)}); give --factor for "
+                             "each factor")
+    return [Factor(letter, letter, 0.0, 1.0) for letter in letters]

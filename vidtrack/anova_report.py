@@ -93,7 +93,7 @@ def _figure(w, h):
 
 def _residual_plots(fit, title):
     """Normal probability plot, residuals vs predicted and vs run, predicted vs actual."""
-    import scipy.stats
+    import scipy.special
 
     fig = _figure(9.5, 7.0)
     axs = fig.subplots(2, 2)
@@ -106,7 +106,7 @@ def _residual_plots(fit, title):
         label = "residual"
     rs = np.sort(r[ok])
     n = rs.size
-    q = scipy.stats.norm.ppf((np.arange(1, n + 1) - 0.375) / (n + 0.25))
+    q = scipy.special.ndtri((np.arange(1, n + 1) - 0.375) / (n + 0.25))
     ax = axs[0, 0]
     ax.plot(rs, q, "o", ms=4)
     if n > 1 and np.ptp(rs) > 0:
