@@ -196,6 +196,8 @@ def canonical_analysis(terms, params, factors, coded_extent):
     k = len(factors)
     if any(sum(t) > 2 for t in terms):
         return CanonicalAnalysis(False, "the model has terms above second order")
+    if not any(sum(t) for t in terms):
+        return CanonicalAnalysis(False, "no model terms: the fitted surface is the mean")
     if not any(sum(t) == 2 for t in terms):
         return CanonicalAnalysis(False, "first-order model: the surface is a plane with "
                                         "no stationary point")

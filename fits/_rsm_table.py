@@ -32,7 +32,7 @@ def read_table(path):
     if not path.is_file():
         raise InputError(f"{path}: no such file")
     try:
-        df = pd.read_csv(path, dtype=str, skipinitialspace=True)
+        df = pd.read_csv(path, dtype=str, skipinitialspace=True, encoding="utf-8-sig")
     except pd.errors.EmptyDataError:
         raise InputError(f"{path}: the file is empty; expected a CSV table with a "
                          "header row") from None
@@ -92,7 +92,11 @@ def numeric_column(table, column):
 
 
 def label_column(table, column):
-    """The values of a categorical ``column`` as stripped strings (no empty cells)."""
+    """The values of a categorical ``column`` as level labels (no empty cells).
+
+    Labels are the stripped cell texts; when every cell is a number, cells with equal
+    values share one label (the first text seen), so ``42`` and ``42.0`` are one level.
+    """
     require_columns(table, [column])
     out = []
     for i, v in enumerate(table[column]):
@@ -100,7 +104,12 @@ def label_column(table, column):
             raise InputError(f"{source_of(table)}: row {i + 1} (line {i + 2}), column "
                              f"{column!r}: the cell is empty; expected a factor level")
         out.append(str(v).strip())
-    return out
+    try:
+        values = [float(t) for t in out]
+    except ValueError:
+        return out
+    first = {}
+    return [first.setdefault(x, t) for x, t in zip(values, out)]
 
 
 def run_labels(table):

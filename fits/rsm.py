@@ -337,8 +337,10 @@ class RsmFit:
         for name, c in self.coefficients_natural.items():
             num = f"{abs(c):.{sig}g}"
             term = num if name == INTERCEPT else f"{num}*{name.replace(':', '*')}"
-            sign = "-" if c < 0 else "+"
-            parts.append(term if not parts and c >= 0 else f"{sign} {term}")
+            if not parts:
+                parts.append(f"-{term}" if c < 0 else term)
+            else:
+                parts.append(f"{'-' if c < 0 else '+'} {term}")
         return f"{self.response} = " + " ".join(parts)
 
     def summary(self):
@@ -502,6 +504,10 @@ def fit_rsm(table, response, factors, *, terms=None, alpha=0.05, eliminate=True,
     names = [INTERCEPT] + [term_name(t, letters) for t in candidates]
     keep, aliased = estimable_columns(model_matrix(coded, candidates), names)
     n_est = len(keep)
+    if n_est == 1:
+        raise InputError(f"{source_of(table)}: none of the model terms can be estimated: "
+                         f"the factor columns ({', '.join(f.name for f in factors)}) do not "
+                         "vary over the runs")
     if n <= n_est:
         raise InputError(
             f"{source_of(table)}: fewer runs than terms: {n} runs for a model of "
@@ -529,12 +535,13 @@ def fit_rsm(table, response, factors, *, terms=None, alpha=0.05, eliminate=True,
     term_names = [term_name(t, letters) for t in exps]
 
     # ANOVA: regression, residual, lack of fit / pure error, total
-    ssr = float(np.sum((fit.fitted - y.mean()) ** 2))
+    ssr = float(np.sum((fit.fitted - y.mean()) ** 2)) if p > 1 else 0.0
     mse = fit.mse
     anova = {"regression": f_row(ssr, p - 1, mse, fit.df_resid)}
     if p == 1:
         anova["regression"] = AnovaRow(ss=ssr, df=0)
-        notes.append("no term is significant at alpha: the model is the mean alone")
+        notes.append(f"no term is significant at alpha {alpha:g}: the model is the mean "
+                     "alone")
     anova["residual"] = AnovaRow(ss=fit.sse, df=fit.df_resid, ms=mse)
     groups, m = replicate_groups(coded)
     ss_pe, df_pe = pure_error(y, groups)

@@ -182,6 +182,14 @@ def test_single_level_factor_and_non_numeric_response(table3):
         fit_orthogonal(df, "power_kw", FACTORS)
 
 
+def test_numeric_levels_written_differently_are_one_level(tmp_path):
+    path = tmp_path / "t.csv"
+    path.write_bytes("\ufeffg,y\n1,2.0\n1.0,2.5\n2,3.1\n2,3.3\n3,1.0\n3.0,1.2\n"
+                     .encode("utf-8"))
+    fit = fit_orthogonal(read_table(path), "y", ["g"])          # a BOM and 1 / 1.0
+    assert fit.levels["g"] == ("1", "2", "3") and fit.anova["g"].df == 2
+
+
 def test_json_rows_are_named_as_the_columns(fits):
     d = fits["winding"].to_dict()
     assert d["design"] == "orthogonal"

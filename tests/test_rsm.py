@@ -268,6 +268,40 @@ def test_natural_expansion_evaluates_like_the_coded_polynomial(centres, steps, b
     assert abs(y_nat[0] - y_coded[0]) <= 1e-9 * scale[0] * (1 + max(map(abs, centres))) ** 2
 
 
+def test_box_behnken_design_against_statsmodels():
+    # a design the paper did not use: 3-factor Box-Behnken, 3 centre runs, natural columns
+    import itertools
+
+    import statsmodels.formula.api as smf
+    from statsmodels.stats.anova import anova_lm
+
+    pts = []
+    for i, j in itertools.combinations(range(3), 2):
+        for a, b in itertools.product((-1, 1), repeat=2):
+            p = [0, 0, 0]
+            p[i], p[j] = a, b
+            pts.append(p)
+    pts = np.array(pts + [[0, 0, 0]] * 3, dtype=float)
+    rng = np.random.default_rng(2)
+    x1, x2, x3 = pts.T
+    y = 50 + 3 * x1 - 2 * x2 + 1.5 * x1 * x3 - 4 * x1 ** 2 + rng.normal(0, 0.5, len(pts))
+    table = pd.DataFrame({"temp_c": 60 + 10 * x1, "time_min": 30 + 5 * x2,
+                          "ph": 7 + 0.5 * x3, "yield_pct": y})
+    fs = [Factor("A", "temp_c", 60, 10), Factor("B", "time_min", 30, 5), Factor("C", "ph", 7, 0.5)]
+    fit = fit_rsm(table, "yield_pct", fs, eliminate=False)
+    ref_df = pd.DataFrame({"A": x1, "B": x2, "C": x3, "y": y})
+    ref = smf.ols("y ~ A + B + C + A:B + A:C + B:C + I(A**2) + I(B**2) + I(C**2)", ref_df).fit()
+    assert fit.anova["regression"].f == pytest.approx(ref.fvalue, rel=1e-10)
+    assert fit.anova["regression"].p == pytest.approx(ref.f_pvalue, rel=1e-8)
+    assert fit.r2 == pytest.approx(ref.rsquared, rel=1e-12)
+    table3 = anova_lm(ref, typ=3)
+    for term, name in [("A", "A"), ("A:C", "A:C"), ("A^2", "I(A ** 2)"), ("C^2", "I(C ** 2)")]:
+        t = next(t for t in fit.term_tests if t.term == term)
+        assert t.ss == pytest.approx(table3.loc[name, "sum_sq"], rel=1e-9)
+        assert t.p == pytest.approx(table3.loc[name, "PR(>F)"], rel=1e-7)
+    assert fit.anova["pure_error"].df == 2 and fit.anova["lack_of_fit"].df == 3
+
+
 # ---------------------------------------------------------------- canonical analysis
 
 def test_canonical_analysis_finds_a_known_maximum(table2):
@@ -329,6 +363,7 @@ def test_no_replicates_leaves_lack_of_fit_out(table2):
     (lambda t: t.assign(k1=t["k1"].where(t.index != 6, "2,5")), "row 7.*'k1'.*'2,5'"),
     (lambda t: t.assign(k1=t["k1"].where(t.index != 2, None)), "row 3.*'k1'.*empty"),
     (lambda t: t.assign(k1="2.0"), "constant"),
+    (lambda t: t.assign(A="0", B="0", C="0"), "do not vary"),
 ])
 def test_bad_tables_give_one_clear_message(table2, change, match):
     with pytest.raises(InputError, match=match):
