@@ -184,15 +184,18 @@ def test_interpolated_colour_is_converted_to_luma(tmp_path):
                 assert np.abs(f - luma[k]).max() <= 1.0
 
 
-def test_old_style_packed_declared_as_16_bit(tmp_path):
-    """Packed 12-bit pixels in a file whose bitmap header says plain 16-bit."""
-    frames = np.random.default_rng(2).integers(0, 4096, (4, 8, 10)).astype(np.uint16)
-    path = write_cine(tmp_path / "p.cine", frames, fps=1000, bit_depth=12, packed=True)
+@pytest.mark.parametrize("bits", [10, 12])
+@pytest.mark.parametrize("declared", ["16", "own"])
+def test_packed_pixels_without_a_packed_compression_code(tmp_path, bits, declared):
+    """Packed pixels whose bitmap header says biCompression 0 with 16 (or 10/12) bits."""
+    frames = np.random.default_rng(2).integers(0, 2 ** bits, (4, 8, 10)).astype(np.uint16)
+    path = write_cine(tmp_path / "p.cine", frames, fps=1000, bit_depth=bits, packed=True)
     data = bytearray(path.read_bytes())
-    struct.pack_into("<HI", data, 44 + 14, 16, 0)  # biBitCount = 16, biCompression = 0
+    count = 16 if declared == "16" else bits
+    struct.pack_into("<HI", data, 44 + 14, count, 0)  # biBitCount, biCompression = 0
     path.write_bytes(bytes(data))
     with open_source(path) as src:
-        assert src.to_dict()["layout"] == "p12" and src.bit_depth == 12
+        assert src.to_dict()["layout"] == f"p{bits}" and src.bit_depth == bits
         np.testing.assert_array_equal(np.array(list(src)), frames)
 
 

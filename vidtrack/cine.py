@@ -168,7 +168,10 @@ class CineSource(FrameSource):
     first_image_no : int
         Image number of the file's first image, relative to the trigger (image 0).
     image_numbers : numpy.ndarray
-        Trigger-relative image number of every source frame.
+        Trigger-relative image number of every source frame: ``first_image_no + k``
+        for file frame ``k``, as the header numbers saved images. When a save kept only
+        every n-th image, ``trigger_times_s`` (from the stamps) is the reliable
+        measure of when an image was taken.
     trigger_times_s : numpy.ndarray or None
         Time stamp of every source frame in s relative to the trigger (TriggerTime);
         None when the file has no usable stamps.
@@ -282,10 +285,11 @@ class CineSource(FrameSource):
             raise self._fail(f"damaged image header: {cols} x {bi['height']} pixels")
         pattern = self.setup.get("cfa", 0) & 0xFF
         if bi["compression"] == BI_RGB:
-            layout = {8: "u8", 16: "u16", 24: "bgr8", 48: "bgr16"}.get(bi["bit_count"])
+            layout = {8: "u8", 10: "p10", 12: "p12", 16: "u16", 24: "bgr8",
+                      48: "bgr16"}.get(bi["bit_count"])
             if layout is None:
                 raise self._fail(f"{bi['bit_count']}-bit images are not supported (expected 8 or "
-                                 "16 bits grey, or 24/48-bit colour)")
+                                 "16 bits grey, packed 10 or 12 bits, or 24/48-bit colour)")
         elif bi["compression"] == BI_PACKED10:
             layout = "p10"
         elif bi["compression"] == BI_PACKED12:
