@@ -41,7 +41,8 @@ import numpy as np
 
 from vidtrack._atomic import atomic_path
 from vidtrack.errors import SourceError
-from vidtrack.frames import FrameSource
+from vidtrack.frames import FrameSource, to_grey
+from vidtrack.timebase import stamp_rate
 
 __all__ = ["CineSource", "write_cine", "pack_10bit", "unpack_10bit", "pack_12bit",
            "unpack_12bit"]
@@ -394,11 +395,7 @@ class CineSource(FrameSource):
             steps = np.diff(ticks)
             if np.all(steps > 0):
                 self._stamps = ticks
-                if steps.size:
-                    # the mean of the ordinary intervals (gaps left out): stamps are often
-                    # quantised (to 1 us in older files), so single intervals jitter
-                    ordinary = steps[steps < 1.5 * np.median(steps)]
-                    self.fps_time_stamps = float(_FRACTION / np.mean(ordinary))
+                self.fps_time_stamps = stamp_rate((ticks - ticks[0]) / _FRACTION)
             else:
                 k = int(np.flatnonzero(steps <= 0)[0]) + 1
                 self.notes += (f"time stamps do not increase at frame {k}; frames are timed by the "
@@ -485,8 +482,6 @@ class CineSource(FrameSource):
         if not self._top_down:
             image = image[::-1]
         if image.ndim == 3 and image.shape[2] == 3:
-            from vidtrack.frames import to_grey
-
             return to_grey(np.ascontiguousarray(image).astype(self._dtype, copy=False))
         if image.ndim == 3:
             image = image[:, :, 0]

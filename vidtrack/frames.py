@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vidtrack.errors import SourceError
+from vidtrack.errors import SourceError, VidtrackError
 
 __all__ = [
     "EXPORT_FORMATS",
@@ -879,7 +879,6 @@ def export_frames(source, out, *, every=1, fmt="png", quiet=False):
 
     from vidtrack._atomic import write_text
     from vidtrack._progress import progress
-    from vidtrack.errors import VidtrackError
 
     cv2 = _cv2()
     out = Path(out)

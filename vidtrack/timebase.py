@@ -29,6 +29,7 @@ __all__ = [
     "check_time_base",
     "check_time_stamps",
     "compare_rates",
+    "stamp_rate",
     "estimate_noise_sigma",
     "find_duplicates",
     "frame_differences",
@@ -40,6 +41,33 @@ RATE_RTOL = 0.005
 GAP_FACTOR = 1.5
 #: Mean |difference| of two independent N(0, sigma^2) noise images, in units of sigma.
 _NOISE_MAD = 2.0 / math.sqrt(math.pi)
+
+
+def stamp_rate(times_s):
+    """Frame rate that time stamps show: 1 / mean ordinary interval (frames/s).
+
+    Parameters
+    ----------
+    times_s : array_like
+        Time of every frame in s, in frame order.
+
+    Returns
+    -------
+    float or None
+        None with fewer than two increasing stamps.
+
+    Notes
+    -----
+    Ordinary intervals are the increasing ones up to ``GAP_FACTOR`` (1.5) median
+    intervals: gaps (dropped frames) are left out. The mean, not the median, averages
+    out stamps quantised to a microsecond, whose single intervals jitter by one tick.
+    """
+    steps = np.diff(np.asarray(times_s, dtype=np.float64))
+    steps = steps[steps > 0]
+    if steps.size == 0:
+        return None
+    ordinary = steps[steps <= GAP_FACTOR * np.median(steps)]
+    return float(1.0 / np.mean(ordinary))
 
 
 def compare_rates(capture_fps, container_fps, *, rtol=RATE_RTOL):
@@ -157,8 +185,7 @@ def check_time_stamps(times_s, *, nominal_fps=None, rtol=RATE_RTOL):
         total = sum(m for _, m in dropped)
         warnings.append(f"time stamps show {total} dropped frame(s) in {len(dropped)} gap(s), "
                         f"first before frame {dropped[0][0]}")
-    ordinary = steps[(steps > 0) & ~gap]
-    fps_stamps = float(1.0 / np.mean(ordinary))
+    fps_stamps = stamp_rate(t)
     decimation = None
     if nominal_fps:
         ratio = nominal_fps / fps_stamps
