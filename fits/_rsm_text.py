@@ -7,10 +7,9 @@ def fmt_num(x, *, sig=6):
     """A number rounded to ``sig`` significant digits; blank for None."""
     if x is None:
         return ""
-    if isinstance(x, int) or (isinstance(x, float) and x.is_integer() and abs(x) < 1e15):
-        if isinstance(x, int):
-            return str(x)
-    if isinstance(x, float) and not math.isfinite(x):
+    if isinstance(x, int):
+        return str(x)
+    if not math.isfinite(x):
         return "inf" if x > 0 else ("-inf" if x < 0 else "nan")
     return f"{x:.{sig}g}"
 

@@ -311,9 +311,11 @@ def _rsm_section(fit, comparisons):
     c = fit.canonical
     if c.available:
         pt = ", ".join(f"{k} = {v:.5g}" for k, v in c.stationary_point_natural.items())
+        eig = ", ".join(f"{v:.4g}" for v in c.eigenvalues)
+        where = "inside" if c.within_design else "outside"
         h.append(f"<p>Canonical analysis: a {_esc(c.nature)} at {_esc(pt)} (predicted "
-                 f"{c.response_at_stationary:.5g}; {'inside' if c.within_design else 'outside'}"
-                 f" the design); eigenvalues {_esc(', '.join(f'{v:.4g}' for v in c.eigenvalues))}.</p>")
+                 f"{c.response_at_stationary:.5g}; {where} the design); eigenvalues "
+                 f"{_esc(eig)}.</p>")
     else:
         h.append(f"<p>Canonical analysis: {_esc(c.reason)}.</p>")
     h += [f'<p class="note">Note: {_esc(n)}</p>' for n in fit.notes]
