@@ -420,16 +420,25 @@ def _compare_anova(fit, resp_name, group):
 def _compare_coefficients(fit, resp_name, group):
     rows = []
     coefs = getattr(fit, "coefficients_natural", None)
+    if coefs is not None:
+        # natural-unit names (n_rpm:blade_angle_deg) unless the table uses coded ones (A:B)
+        named = [t.strip() for t in group["term"] if t.strip() != "Intercept"]
+        if named and not any(t in coefs for t in named) and all(
+                t in fit.coefficients_coded for t in named):
+            coefs = fit.coefficients_coded
     for _, r in group.iterrows():
         term = r["term"].strip()
         text = r["coefficient"].strip()
         if not text:
             continue
         pub = _parse(text)
-        comp = coefs.get(term) if coefs is not None else None
-        if comp is None and coefs is not None and term in ("(Intercept)", "intercept",
-                                                            "const"):
-            comp = coefs.get("Intercept")
+        comp = None
+        if coefs is not None:
+            if term in ("(Intercept)", "intercept", "const"):
+                term_key = "Intercept"
+            else:
+                term_key = term
+            comp = coefs.get(term_key)
         status, diff = _status("coefficient", text, pub, comp)
         note = ""
         if status == "missing":

@@ -396,3 +396,27 @@ def test_json_has_the_spec_fields_and_the_added_ones(fits):
     assert cov.shape == (6, 6) and np.allclose(cov, cov.T)
     assert d["residual_ms"] == d["anova"]["residual"]["ms"]
     assert set(d["anova"]["total"]) == {"ss", "df"}
+
+
+# ---------------------------------------------------------------- fits.compare details
+
+def test_printed_digits_and_the_last_digit_stories():
+    from fits.compare import _last_digit_story
+
+    assert printed_unit("8.44") == pytest.approx(0.01)
+    assert printed_unit("1.508e-5") == pytest.approx(1e-8)
+    assert printed_unit("87380.3") == pytest.approx(0.1)
+    assert printed_unit("26") == 1.0
+    assert _last_digit_story(0.0054027778, "5.402e-3").startswith("truncated")
+    assert _last_digit_story(4.814519e-3, "4.82e-3").startswith("double rounding")
+    assert _last_digit_story(1.2345, "1.25").startswith("one unit off")
+
+
+def test_compare_reads_coded_coefficient_tables(table2, fits, tmp_path):
+    path = tmp_path / "coded.csv"
+    path.write_text("response,term,coefficient\nk3,Intercept,4.78\nk3,A,0.64\nk3,A:B,-0.34\n"
+                    "k3,B,-0.30\n")
+    comp = compare([fits["k3"]], read_published(path))
+    status = {r.source: r.status for r in comp.rows}
+    assert status == {"Intercept": "match", "A": "last digit", "A:B": "match",
+                      "B": "differs"}
