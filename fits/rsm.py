@@ -8,8 +8,9 @@ with regression, residual, lack of fit (distinct design points), pure error
 numbers, coefficients in coded and natural units, and the canonical analysis.
 
 The natural-unit coefficients are the exact binomial expansion of the coded
-polynomial, never a refit in natural units: the natural design matrix of Table 2 has a
-condition number near 1e8 (``RsmFit.condition_number_natural``), the coded one about 5.
+polynomial, never a refit in natural units: for the full quadratic model of Table 2 the
+natural-unit design matrix has a condition number of 1.8e7
+(``RsmFit.condition_number_natural``), the coded one 3.0.
 
 Example
 -------
@@ -23,6 +24,7 @@ Example
 """
 
 import math
+import numbers
 import re
 import warnings
 from dataclasses import dataclass, field
@@ -41,7 +43,8 @@ from fits._rsm_text import fmt_f, fmt_num, fmt_p, format_table
 from fits.errors import InputError
 
 __all__ = ["AliasedTermWarning", "AnovaRow", "CanonicalAnalysis", "EliminationStep",
-           "Factor", "RsmFit", "TermTest", "code_factors", "fit_rsm", "read_table"]
+           "Factor", "RsmFit", "TermTest", "code_factors", "default_factors", "fit_rsm",
+           "read_table"]
 
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_.]*$")
 
@@ -75,7 +78,7 @@ class Factor:
                 raise InputError(f"factor {what} must be a name of letters, digits and "
                                  f"'_' (no ':' or '^'), got {v!r}")
         for what, v in (("centre", self.centre), ("step", self.step)):
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
+            if not isinstance(v, numbers.Real) or not math.isfinite(v):
                 raise InputError(f"factor {self.letter}: {what} must be a finite number, "
                                  f"got {v!r}")
         if self.step == 0:
