@@ -33,8 +33,14 @@ def _stiffness(t_max, state, k, cp, model):
 
 def reference(t, state, k, cp, *, v1=0.0, model="quadratic"):
     method = "LSODA" if _stiffness(np.max(t), state, k, cp, model) > 200 else "DOP853"
-    return solve_throw(t, state, k, cp, v1=v1, model=model, method=method,
-                       rtol=1e-12, atol=1e-15)
+    try:
+        return solve_throw(t, state, k, cp, v1=v1, model=model, method=method,
+                           rtol=1e-12, atol=1e-15)
+    except ValueError:
+        # LSODA's dense output can fail on a long phase followed by a very stiff one
+        # (it repeats a step time); Radau with the exact Jacobian does not
+        return solve_throw(t, state, k, cp, v1=v1, model=model, method="Radau",
+                           rtol=1e-12, atol=1e-15)
 
 
 def assert_close_to_reference(t, state, k, cp, *, v1=0.0, model="quadratic"):
@@ -69,7 +75,7 @@ throws = hs.tuples(
 )
 
 
-@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(throws, hs.sampled_from(["quadratic", "linear", "free"]))
 def test_closed_form_matches_tight_ode(throw, model):
     state, k, cp, v1, t_max = throw
@@ -88,6 +94,7 @@ def test_closed_form_matches_tight_ode(throw, model):
     ((0, 1, 0, 3.0, -2.0, 2.0), PAPER_K, 0.5, 2.0, 10.0),              # exactly terminal
     ((0, 0, 0, 7.0, 30.0, 2.0), (1e4, 1e4, 1e4, 1e4), 1.0, 2.0, 1000.0),  # k = 1e4
     ((0, 0, 0, 7.0, 4.5, 2.0), (1e-3, 1e-3, 1e-3, 1e-3), 0.1, 2.0, 1000.0),  # k = 1e-3
+    ((0, 0, 0, 0.0, 2.0, 0.0), (1e-3, 1e4, 1.0, 1.0), 0.1, 0.0, 1000.0),  # 200 s up, stiff down
 ])
 @pytest.mark.parametrize("model", ["quadratic", "linear"])
 def test_named_corners_match_ode(case, model):
