@@ -14,7 +14,8 @@ exact expansion of the coded polynomial); canonical analysis. Factors come from
 --factor LETTER=COLUMN:CENTRE:STEP (coded = (natural - centre) / step; the table may
 hold the natural column, the coded column named by the letter, or both). Without
 --factor, the table's coded columns A, B, C, ... are used as they are (centre 0, step
-1, so natural units are coded units).
+1, so natural units are coded units). A design without replicated points has no pure
+error: the lack-of-fit row is left out and a note says so.
 
 --design orthogonal: fixed-effects ANOVA with the --categorical factor columns and any
 --interaction a:b (RESPONSE=a:b for one response only), range analysis (level means,
@@ -22,7 +23,9 @@ range R), order of influence, percent contribution.
 
 --compare PUBLISHED.csv puts every printed number beside the computed one and explains
 the differences the published table shows (F from rounded mean squares, rows that do
-not add up, a table not computed from the printed data, truncated digits).
+not add up, a table not computed from the printed data, truncated digits); differences
+are reported, not errors (exit code 0). --json prints a list with one object per
+response (numbers in full precision); bad input gives one line on stderr and exit 2.
 
 Examples:
   vidtrack anova datasets/published/chen2018_table2_ccd.csv --response k1 \\
