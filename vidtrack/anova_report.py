@@ -13,80 +13,24 @@ Plots are drawn with matplotlib's Agg canvas (no display, no global pyplot state
 embedded as base64 PNG; the file is written atomically.
 """
 
-import base64
-import html
-import io
-from datetime import datetime, timezone
-
 import numpy as np
 
+from vidtrack import _html
 from vidtrack._atomic import write_text
 
 __all__ = ["render_anova_report", "write_anova_report"]
 
-_CSS = """
-body{font-family:system-ui,-apple-system,Segoe UI,sans-serif;margin:2em auto;max-width:1100px;
-color:#222;line-height:1.4}
-h1{font-size:1.6em}h2{border-bottom:2px solid #ccc;padding-bottom:.2em;margin-top:2em}
-table{border-collapse:collapse;margin:.6em 0 1.2em 0;font-size:.9em}
-th,td{border:1px solid #ccc;padding:.2em .6em;text-align:right}
-th{background:#f0f0f0}td.l,th.l{text-align:left}
-tr.flag td{background:#fff1e0}tr.sig td{font-weight:600}
-.note{color:#8a4b00}.muted{color:#666}img{max-width:100%;display:block;margin:.5em 0}
-code{background:#f4f4f4;padding:0 .2em}
-"""
-
-
-def _esc(x):
-    return html.escape(str(x))
-
-
-def _num(x, sig=6):
-    if x is None:
-        return ""
-    if isinstance(x, (int, np.integer)):
-        return str(int(x))
-    x = float(x)
-    if not np.isfinite(x):
-        return "n/a"
-    return f"{x:.{sig}g}"
+_esc = _html.esc
+_num = _html.num
+_table = _html.table
+_png = _html.png
+_figure = _html.figure
 
 
 def _p(p):
     if p is None:
         return ""
     return "&lt;0.0001" if p < 1e-4 else f"{p:.4f}"
-
-
-def _table(headers, rows, *, left=1, classes=None):
-    out = ["<table><tr>"]
-    out += [f'<th class="l">{_esc(h)}</th>' if i < left else f"<th>{_esc(h)}</th>"
-            for i, h in enumerate(headers)]
-    out.append("</tr>")
-    for k, r in enumerate(rows):
-        cls = f' class="{classes[k]}"' if classes and classes[k] else ""
-        out.append(f"<tr{cls}>")
-        out += [f'<td class="l">{c}</td>' if i < left else f"<td>{c}</td>"
-                for i, c in enumerate(r)]
-        out.append("</tr>")
-    out.append("</table>")
-    return "".join(out)
-
-
-def _png(fig):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    FigureCanvasAgg(fig)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=90, bbox_inches="tight")
-    data = base64.b64encode(buf.getvalue()).decode("ascii")
-    return f'<img alt="plot" src="data:image/png;base64,{data}">'
-
-
-def _figure(w, h):
-    from matplotlib.figure import Figure
-
-    return Figure(figsize=(w, h))
 
 
 # ---------------------------------------------------------------- plots
@@ -373,19 +317,11 @@ def render_anova_report(fits, *, comparisons=(), title=None, source=None):
     source : str, optional
         The analysed table's name, shown in the header.
     """
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    from vidtrack import __version__
-
     fits = list(fits)
     title = title or "ANOVA report" + (f": {source}" if source else "")
-    when = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    parts = [f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>{_esc(title)}"
-             f"</title><style>{_CSS}</style></head><body><h1>{_esc(title)}</h1>",
-             f'<p class="muted">vidtrack {_esc(__version__)}, {when}'
-             + (f"; table <code>{_esc(source)}</code>" if source else "")
-             + f"; responses: {_esc(', '.join(f.response for f in fits))}.</p>"]
+    subtitle = ((f"table <code>{_esc(source)}</code>; " if source else "")
+                + f"responses: {_esc(', '.join(f.response for f in fits))}.")
+    parts = []
     for comp in comparisons:
         parts += [f'<p class="note">{_esc(comp.source)}: {_esc(n)}</p>' for n in comp.notes]
     for fit in fits:
@@ -393,8 +329,7 @@ def render_anova_report(fits, *, comparisons=(), title=None, source=None):
             parts.append(_rsm_section(fit, comparisons))
         else:
             parts.append(_ortho_section(fit, comparisons))
-    parts.append("</body></html>\n")
-    return "".join(parts)
+    return _html.page(title, parts, subtitle=subtitle)
 
 
 def write_anova_report(path, fits, *, comparisons=(), title=None, source=None):

@@ -1,0 +1,91 @@
+"""Self-contained HTML reports: one page style, escaped text, tables, inline PNG plots."""
+
+import base64
+import html
+import io
+from datetime import datetime, timezone
+
+import numpy as np
+
+CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,sans-serif;margin:2em auto;max-width:1100px;
+color:#222;line-height:1.4}
+h1{font-size:1.6em}h2{border-bottom:2px solid #ccc;padding-bottom:.2em;margin-top:2em}
+table{border-collapse:collapse;margin:.6em 0 1.2em 0;font-size:.9em}
+th,td{border:1px solid #ccc;padding:.2em .6em;text-align:right}
+th{background:#f0f0f0}td.l,th.l{text-align:left}
+tr.flag td{background:#fff1e0}tr.sig td{font-weight:600}
+.note{color:#8a4b00}.muted{color:#666}img{max-width:100%;display:block;margin:.5em 0}
+code{background:#f4f4f4;padding:0 .2em}
+"""
+
+
+def esc(x):
+    """HTML-escaped text of ``x``."""
+    return html.escape(str(x))
+
+
+def num(x, sig=6):
+    """A number with ``sig`` significant digits; '' for None, 'n/a' if not finite."""
+    if x is None:
+        return ""
+    if isinstance(x, (int, np.integer)):
+        return str(int(x))
+    x = float(x)
+    if not np.isfinite(x):
+        return "n/a"
+    return f"{x:.{sig}g}"
+
+
+def table(headers, rows, *, left=1, classes=None):
+    """An HTML table; the first ``left`` columns are left-aligned; cells are raw HTML."""
+    out = ["<table><tr>"]
+    out += [f'<th class="l">{esc(h)}</th>' if i < left else f"<th>{esc(h)}</th>"
+            for i, h in enumerate(headers)]
+    out.append("</tr>")
+    for k, r in enumerate(rows):
+        cls = f' class="{classes[k]}"' if classes and classes[k] else ""
+        out.append(f"<tr{cls}>")
+        out += [f'<td class="l">{c}</td>' if i < left else f"<td>{c}</td>"
+                for i, c in enumerate(r)]
+        out.append("</tr>")
+    out.append("</table>")
+    return "".join(out)
+
+
+def figure(w, h):
+    """A matplotlib Figure on the Agg canvas (no pyplot state, no display)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(w, h))
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def png_bytes(fig, *, dpi=90):
+    """The figure as PNG bytes."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    FigureCanvasAgg(fig)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+    return buf.getvalue()
+
+
+def png(fig, *, alt="plot"):
+    """The figure as an inline ``<img>`` (base64 PNG)."""
+    data = base64.b64encode(png_bytes(fig)).decode("ascii")
+    return f'<img alt="{esc(alt)}" src="data:image/png;base64,{data}">'
+
+
+def page(title, body_parts, *, subtitle=""):
+    """A whole HTML page with the common style."""
+    from vidtrack import __version__
+
+    when = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    head = (f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>{esc(title)}'
+            f"</title><style>{CSS}</style></head><body><h1>{esc(title)}</h1>"
+            f'<p class="muted">vidtrack {esc(__version__)}, {when}'
+            f"{'; ' + subtitle if subtitle else ''}</p>")
+    return head + "".join(body_parts) + "</body></html>\n"
