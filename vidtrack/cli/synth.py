@@ -1,0 +1,178 @@
+"""``vidtrack synth OUT``: render a synthetic run with known truth."""
+
+import argparse
+
+HELP = "render a synthetic run (front/top views, ruler, noise, blur) with truth.json"
+
+DESCRIPTION = """\
+Render a run folder from known coefficients: scene.toml, the footage of a front and/or
+top view of a straw thrown on the quadratic-drag model (k1..k4, Cp, release state) with
+a textured background, machine parts, a ruler, the straw riding a rotor tooth before
+release, motion blur, sensor noise and MJPG compression, and truth.json (every
+parameter; per view and frame: time, world position, true centroid in pixels, flags).
+Docs: docs/synth.md.
+
+examples:
+  vidtrack synth run42
+  vidtrack synth runs/small --size 320x240 --flight-s 0.2 --format png
+  vidtrack synth runs/cross --second-straw --views front --codec ffv1
+  vidtrack synth runs/rep --throws 10 --seed 7
+"""
+
+
+def _floats(n, what):
+    def parse(text):
+        try:
+            values = tuple(float(v) for v in text.split(","))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {n} comma-separated numbers "
+                                             f"({what}), got {text!r}") from None
+        if len(values) != n:
+            raise argparse.ArgumentTypeError(f"expected {n} comma-separated numbers "
+                                             f"({what}), got {len(values)} in {text!r}")
+        return values
+    return parse
+
+
+def _size(text):
+    parts = text.lower().split("x")
+    try:
+        w, h = (int(p) for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT in pixels like 480x360, "
+                                         f"got {text!r}") from None
+    return (w, h)
+
+
+def _views(text):
+    names = tuple(v.strip() for v in text.split(",") if v.strip())
+    if not names or any(v not in ("front", "top") for v in names) or len(set(names)) != len(names):
+        raise argparse.ArgumentTypeError(f"expected front, top or front,top, got {text!r}")
+    return names
+
+
+def _axes(text):
+    return tuple(a.strip() for a in text.split(","))
+
+
+def add_arguments(parser):
+    p = parser
+    p.add_argument("out", metavar="OUT", help="run folder to write (new or empty; see --force)")
+    p.add_argument("--force", action="store_true",
+                   help="write into a non-empty OUT, replacing a previous synthetic run's "
+                        "scene.toml, truth.json, footage, throws/ and vidtrack/")
+    p.add_argument("--json", action="store_true", help="print what was written as JSON")
+    g = p.add_argument_group("throw")
+    g.add_argument("--k", type=_floats(4, "k1,k2,k3,k4"), default=(2.2, 2.5, 4.6, 21.3),
+                   help="k1,k2,k3,k4 (default 2.2,2.5,4.6,21.3)")
+    g.add_argument("--cp", type=float, default=0.115, help="drag parameter Cp, s/m (0.115)")
+    g.add_argument("--state", type=_floats(6, "x0,y0,z0,vx0,vy0,vz0 in m and m/s"),
+                   default=(0.24, -0.05, 0.0, 7.3, 2.6, 2.0),
+                   help="release state x0,y0,z0,vx0,vy0,vz0 in m and m/s, vz0 absolute "
+                        "(default 0.24,-0.05,0,7.3,2.6,2.0)")
+    g.add_argument("--speed-kmh", type=float, default=7.2, help="machine speed v1, km/h (7.2)")
+    g.add_argument("--model", default="quadratic", choices=("quadratic", "linear", "free"),
+                   help="throw model (quadratic)")
+    g = p.add_argument_group("straw and machine")
+    g.add_argument("--straw-length-m", type=float, default=0.10, help="rod length (0.10)")
+    g.add_argument("--straw-diameter-m", type=float, default=0.006, help="rod diameter (0.006)")
+    g.add_argument("--spin-rad-s", type=float, default=None,
+                   help="spin rate after release, rad/s (default: the rotor's rate)")
+    g.add_argument("--straw-grey", type=float, default=0.85,
+                   help="straw grey level 0..1: 0.85 bright (default), e.g. 0.1 dark")
+    g.add_argument("--n-rpm", type=float, default=550.0, help="factor n, r/min (550)")
+    g.add_argument("--blade-angle-deg", type=float, default=0.0, help="factor delta1 (0)")
+    g.add_argument("--blade-rpm", type=float, default=None,
+                   help="rotor rate in the footage (default: continuous with the release)")
+    g.add_argument("--release-frame", type=int, default=12,
+                   help="frames of the straw riding the tooth before release (12)")
+    g = p.add_argument_group("cameras")
+    g.add_argument("--views", type=_views, default=("front", "top"),
+                   help="front, top or front,top (default)")
+    g.add_argument("--size", type=_size, default=(480, 360), help="WxH pixels (480x360)")
+    g.add_argument("--top-size", type=_size, default=None,
+                   help="WxH of the top view (default: --size)")
+    g.add_argument("--fps", type=float, default=1200.0, help="capture rate (1200)")
+    g.add_argument("--playback-fps", type=float, default=30.0,
+                   help="rate stated in the AVI container (30)")
+    g.add_argument("--flight-s", type=float, default=0.4, help="seconds of flight (0.4)")
+    g.add_argument("--frames", type=int, default=None,
+                   help="frames per view (default: release frame + flight)")
+    g.add_argument("--top-delay-s", type=float, default=0.0,
+                   help="the top view's frames are this much later, s (0)")
+    g.add_argument("--front-axes", type=_axes, default=("+x", "-y"),
+                   help="world axes along column,row of the front view (+x,-y)")
+    g.add_argument("--top-axes", type=_axes, default=("+x", "+z"),
+                   help="world axes along column,row of the top view (+x,+z)")
+    g.add_argument("--m-per-px", type=float, default=None,
+                   help="scale (default: fit the rotor and the whole flight)")
+    g.add_argument("--leave-frame", action="store_true",
+                   help="frame only the first 55%% of the flight: the straw leaves the image")
+    g.add_argument("--exposure", type=float, default=0.5,
+                   help="exposure time / frame interval, 0 = no motion blur (0.5)")
+    g.add_argument("--exposure-samples", type=int, default=8,
+                   help="renders averaged per frame (8)")
+    g = p.add_argument_group("scene and sensor")
+    g.add_argument("--texture", type=float, default=0.06,
+                   help="background texture standard deviation, fraction of full scale (0.06)")
+    g.add_argument("--no-machine", action="store_true", help="no housing, rotor or hub")
+    g.add_argument("--no-ruler", action="store_true",
+                   help="no ruler (scene.toml then gives m_per_px)")
+    g.add_argument("--noise", type=float, default=1.5,
+                   help="Gaussian read noise sigma, 8-bit grey levels (1.5)")
+    g.add_argument("--full-well-e", type=float, default=None,
+                   help="electrons at full scale for shot noise (default: none)")
+    g.add_argument("--second-straw", action="store_true",
+                   help="a second straw crossing the first")
+    g.add_argument("--second-cross-s", type=float, default=0.10,
+                   help="time at which the second straw crosses the first, s (0.10)")
+    g = p.add_argument_group("output")
+    g.add_argument("--format", default="avi", choices=("avi", "png", "cine"),
+                   help="footage: AVI video (default), png image folders or Phantom .cine")
+    g.add_argument("--codec", default="mjpg", choices=("mjpg", "ffv1", "raw"),
+                   help="AVI codec: mjpg (lossy, default), ffv1 (lossless), raw")
+    g.add_argument("--quality", type=int, default=75, help="MJPG quality 1..100 (75)")
+    g.add_argument("--bit-depth", type=int, default=8,
+                   help="8 (default); png: 16; cine: 10, 12, 16")
+    g.add_argument("--throws", type=int, default=1,
+                   help="replicate throws: N > 1 writes throws/01 .. (1)")
+    g.add_argument("--seed", type=int, default=42, help="random seed (42)")
+    g.add_argument("--sync-in-scene", action="store_true",
+                   help="write each view's release frame as sync_frame (default: auto)")
+
+
+def run(args):
+    import json
+
+    from vidtrack.synth import SynthSpec, render_run
+
+    spec = SynthSpec(
+        k=args.k, cp_s_per_m=args.cp, state=args.state, speed_kmh=args.speed_kmh,
+        model=args.model, straw_length_m=args.straw_length_m,
+        straw_diameter_m=args.straw_diameter_m, spin_rad_s=args.spin_rad_s,
+        straw_grey=args.straw_grey, n_rpm=args.n_rpm, blade_angle_deg=args.blade_angle_deg,
+        blade_rpm=args.blade_rpm, release_frame=args.release_frame, views=args.views,
+        size_px=args.size, top_size_px=args.top_size, fps=args.fps,
+        playback_fps=args.playback_fps, flight_s=args.flight_s, frames=args.frames,
+        top_delay_s=args.top_delay_s, front_axes=args.front_axes, top_axes=args.top_axes,
+        m_per_px=args.m_per_px, leave_frame=args.leave_frame,
+        exposure_fraction=args.exposure, exposure_samples=args.exposure_samples,
+        texture_amplitude=args.texture, draw_machine=not args.no_machine,
+        draw_ruler=not args.no_ruler, read_noise_dn=args.noise, full_well_e=args.full_well_e,
+        second_straw=args.second_straw, second_cross_s=args.second_cross_s,
+        output_format=args.format, video_codec=args.codec, jpeg_quality=args.quality,
+        bit_depth=args.bit_depth, throws=args.throws, seed=args.seed,
+        scale_in_scene="m_per_px" if args.no_ruler else "ruler",
+        sync_in_scene=args.sync_in_scene)
+    result = render_run(args.out, spec, force=args.force, quiet=args.quiet)
+    if args.json:
+        print(json.dumps(result.to_dict(), indent=1))
+        return 0
+    views = ", ".join(f"{v} {w}x{h} at {result.m_per_px[v] * 1000:.3g} mm/px, release at "
+                      f"frame {result.release_frame[v]}"
+                      for v, (w, h) in result.size_px.items())
+    throws = f", {result.throws} throws" if result.throws > 1 else ""
+    print(f"wrote {result.out_dir}: {result.frames} frames per view at {spec.fps:g} fps "
+          f"({views}){throws}; {len(result.files)} files, "
+          f"{result.bytes_written / 1e6:.2f} MB in {result.elapsed_s:.1f} s")
+    return 0
