@@ -119,7 +119,9 @@ class SynthSpec:
         grid on edges [16].
     Scene dressing and sensor
         ``background_grey`` mean background level [0.45]; ``texture_amplitude``
-        standard deviation of the background texture [0.06]; ``draw_machine``,
+        standard deviation of the background texture [0.06]; ``vignetting`` relative
+        fall-off of the background's illumination towards the image corners [0.08];
+        ``draw_machine``,
         ``draw_ruler`` [True, True]; ``read_noise_dn`` Gaussian read noise, sigma in
         8-bit grey levels (1/255 of full scale) [1.5]; ``full_well_e`` electrons at
         full scale for Poisson shot noise, None = no shot noise [None].
@@ -174,6 +176,7 @@ class SynthSpec:
     supersample: int = 16
     background_grey: float = 0.45
     texture_amplitude: float = 0.06
+    vignetting: float = 0.08
     draw_machine: bool = True
     draw_ruler: bool = True
     read_noise_dn: float = 1.5
@@ -331,6 +334,7 @@ def _validate(s):
     _number("exposure_samples", s.exposure_samples, ge=1, le=256, integer=True)
     _number("supersample", s.supersample, ge=1, le=64, integer=True)
     _number("texture_amplitude", s.texture_amplitude, ge=0, le=0.5)
+    _number("vignetting", s.vignetting, ge=0, le=0.5)
     _number("read_noise_dn", s.read_noise_dn, ge=0)
     if s.full_well_e is not None:
         _number("full_well_e", s.full_well_e, gt=0)
@@ -578,7 +582,8 @@ def _frame_view(spec, name, throws):
         t = t[t <= 0.55 * max(t.max(), 0.0)]
     radius = max(th.blade_radius_m for th in throws)
     reach = radius + _TOOTH_HALF_WIDTH_M + 0.02
-    lo = {"x": -reach, "y": -reach, "z": -(_TOOTH_HALF_BREADTH_M + 0.03)}
+    # the rotor, and on the machine side the edge of the housing
+    lo = {"x": -(reach + 0.12), "y": -reach, "z": -(_TOOTH_HALF_BREADTH_M + 0.03)}
     hi = {"x": reach, "y": reach, "z": _TOOTH_HALF_BREADTH_M + 0.03}
     pad = 0.5 * spec.straw_length_m + spec.straw_diameter_m
     for th in throws:
@@ -670,7 +675,7 @@ def _ruler_boxes(view):
         pos = lo + span_px * j / n
         end = j in (0, n)
         major = j % 5 == 0
-        w = 0.6 if end else 0.5
+        w = 1.0 if end else 0.5
         depth = 2.0 * half if end else (0.7 * half if major else 0.4 * half)
         out.append((box(pos - w, pos + w, perp - half, perp - half + depth), _GREY["tick"]))
     return out
@@ -683,7 +688,7 @@ def _static_image(spec, view):
     img = spec.background_grey + spec.texture_amplitude * _render.smooth_texture((h, w), rng)
     rows = (np.arange(h) - 0.5 * (h - 1)) / (0.5 * h)
     cols = (np.arange(w) - 0.5 * (w - 1)) / (0.5 * w)
-    img *= 1.0 - 0.08 * (rows[:, None] ** 2 + cols[None, :] ** 2)
+    img *= 1.0 - 0.5 * spec.vignetting * (rows[:, None] ** 2 + cols[None, :] ** 2)
     whole = _render.Roi(0, h, 0, w)
     paint = []
     if spec.draw_machine:
@@ -837,7 +842,8 @@ class _ViewRenderer:
                     rois[key] = rois[key].union(roi) if key in rois else roi
         groups = _merge_rois(rois)
         image = self.static.copy()
-        facts = {"coverage_px": 0.0, "overlap": False, "blade_overlap": False}
+        facts = {"coverage_px": 0.0, "moment_u": 0.0, "moment_v": 0.0, "overlap": False,
+                 "blade_overlap": False}
         for roi, keys in groups:
             base = self.static[roi.slices]
             acc = np.zeros(roi.shape)
@@ -857,6 +863,8 @@ class _ViewRenderer:
             if "straw" in cov:
                 straw = cov["straw"] / kk
                 facts["coverage_px"] += float(straw.sum())
+                facts["moment_u"] += float((straw.sum(axis=0) * np.arange(roi.c0, roi.c1)).sum())
+                facts["moment_v"] += float((straw.sum(axis=1) * np.arange(roi.r0, roi.r1)).sum())
                 if "straw2" in cov:
                     facts["overlap"] |= bool(np.any((straw > 0) & (cov["straw2"] > 0)))
                 if "blade" in cov:
@@ -986,6 +994,9 @@ def _view_truth(spec, view, track, renderer, source):
     info = [renderer.info[i] for i in range(n)]
     coverage = np.array([f["coverage_px"] for f in info])
     in_view = coverage > 0
+    safe = np.where(in_view, coverage, 1.0)
+    cov_u = np.where(in_view, np.array([f["moment_u"] for f in info]) / safe, np.nan)
+    cov_v = np.where(in_view, np.array([f["moment_v"] for f in info]) / safe, np.nan)
     seg = track.end_b_px - track.end_a_px
     angle = np.arctan2(seg[:, 1], seg[:, 0])
     angle = np.where(angle > np.pi / 2, angle - np.pi, angle)
@@ -1004,6 +1015,8 @@ def _view_truth(spec, view, track, renderer, source):
         "v_px": _json_list(track.centre_px[:, 1]),
         "u_exposure_px": _json_list(mean_c[:, 0]),
         "v_exposure_px": _json_list(mean_c[:, 1]),
+        "u_coverage_px": _json_list(cov_u),
+        "v_coverage_px": _json_list(cov_v),
         "angle_rad": _json_list(angle),
         "length_px": _json_list(seg_len + 2.0 * r),
         "area_px": _json_list(np.pi * r * r + 2.0 * r * seg_len),
@@ -1101,6 +1114,15 @@ _CONVENTIONS = {
             "v_exposure_px is the area-weighted mean of those renders' centres, i.e. the "
             "centroid of the blurred silhouette's coverage; it differs from u_px, v_px by "
             "the trajectory's curvature over the exposure (far below 0.01 px)",
+    "coverage_centroid": "u_coverage_px, v_coverage_px: the coverage-weighted mean of "
+                         "pixel centres of the rendered blurred silhouette (inside the "
+                         "image; null when out of view): what a perfect coverage-weighted "
+                         "centroid measures. Even on an exact coverage image it differs "
+                         "from the true centroid: a partly covered pixel counts at its "
+                         "centre, not at the centre of its covered part. The difference "
+                         "is largest for a straw aligned with the pixel grid, up to "
+                         "1 / (8 w) px for a straw w px thick (0.03 px at 4 px), and far "
+                         "smaller for a tilted one",
     "flags": "in_view: the rendered (blurred) silhouette covers some pixel; "
              "fully_in_view: it lies inside the image over the whole exposure; "
              "border_touch: in view and reaching the outermost pixel row or column; "
