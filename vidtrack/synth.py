@@ -68,6 +68,10 @@ _TOOTH_HALF_BREADTH_M = 0.03      # top view: the tooth is 60 mm broad along Z
 _HUB_RADIUS_M = 0.045
 _SHAFT_HALF_WIDTH_M = 0.025
 _SHAFT_HALF_LENGTH_M = 0.45
+# The second straw starts out of the XOY plane and tumbles about a tilted axis, so that
+# it crosses the main straw at an angle in both views.
+_SECOND_DIRECTION = np.array([0.35, 0.45, 0.82])
+_SECOND_AXIS = np.array([0.2, 0.9, 0.4])
 _GREY = {"tooth": 0.30, "hub": 0.12, "housing": 0.16, "hood": 0.20,
          "ruler": 0.82, "tick": 0.10}
 
@@ -128,8 +132,9 @@ class SynthSpec:
     Second straw
         ``second_straw`` [False]; ``second_cross_s`` the time (main straw's clock) at
         which both rod centres coincide [0.10]; ``second_flight_s`` how long the second
-        straw has then been flying [0.25]. It leaves the same release point and is
-        drawn behind the main straw.
+        straw has then been flying [0.35]. It leaves the same release point (so it is
+        slower and steeper, falling as the main straw passes), tumbles about a tilted
+        axis at 0.8 times the main straw's spin, and is drawn behind the main straw.
     Output
         ``output_format`` "avi" | "png" | "cine" ["avi"]; ``video_codec`` "mjpg"
         (lossy, ``jpeg_quality`` 0..100) | "ffv1" (lossless) | "raw" (uncompressed)
@@ -183,7 +188,7 @@ class SynthSpec:
     full_well_e: float | None = None
     second_straw: bool = False
     second_cross_s: float = 0.10
-    second_flight_s: float = 0.25
+    second_flight_s: float = 0.35
     output_format: str = "avi"
     video_codec: str = "mjpg"
     jpeg_quality: int = 75
@@ -523,9 +528,8 @@ def _second_pose(t, spec, throw, state2, t2):
         tau = t[live] - t2
         centre[live] = position(tau, state2, throw.k, spec.cp_s_per_m, g=spec.gravity_m_s2,
                                 v1=spec.v1_m_s, model=spec.model)
-        axis = np.asarray(spec.spin_axis, dtype=np.float64)
-        axis = axis / np.linalg.norm(axis)
-        d0 = np.array([math.cos(2.2), math.sin(2.2), 0.0])
+        d0 = _SECOND_DIRECTION / np.linalg.norm(_SECOND_DIRECTION)
+        axis = _SECOND_AXIS / np.linalg.norm(_SECOND_AXIS)
         direction[live] = _rotate(d0, axis, -0.8 * throw.spin_rad_s * tau)
     return centre, direction
 

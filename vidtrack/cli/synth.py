@@ -78,6 +78,9 @@ def add_arguments(parser):
     g.add_argument("--straw-diameter-m", type=float, default=0.006, help="rod diameter (0.006)")
     g.add_argument("--spin-rad-s", type=float, default=None,
                    help="spin rate after release, rad/s (default: the rotor's rate)")
+    g.add_argument("--spin-axis", type=_floats(3, "a world direction x,y,z"),
+                   default=(0.0, 0.0, 1.0),
+                   help="axis the straw spins about, x,y,z (0,0,1: tumbling in XOY)")
     g.add_argument("--straw-grey", type=float, default=0.85,
                    help="straw grey level 0..1: 0.85 bright (default), e.g. 0.1 dark")
     g.add_argument("--n-rpm", type=float, default=550.0, help="factor n, r/min (550)")
@@ -115,6 +118,8 @@ def add_arguments(parser):
     g = p.add_argument_group("scene and sensor")
     g.add_argument("--texture", type=float, default=0.06,
                    help="background texture standard deviation, fraction of full scale (0.06)")
+    g.add_argument("--vignetting", type=float, default=0.08,
+                   help="illumination fall-off towards the corners (0.08)")
     g.add_argument("--no-machine", action="store_true", help="no housing, rotor or hub")
     g.add_argument("--no-ruler", action="store_true",
                    help="no ruler (scene.toml then gives m_per_px)")
@@ -126,6 +131,8 @@ def add_arguments(parser):
                    help="a second straw crossing the first")
     g.add_argument("--second-cross-s", type=float, default=0.10,
                    help="time at which the second straw crosses the first, s (0.10)")
+    g.add_argument("--second-flight-s", type=float, default=0.35,
+                   help="how long the second straw has flown when it crosses, s (0.35)")
     g = p.add_argument_group("output")
     g.add_argument("--format", default="avi", choices=("avi", "png", "cine"),
                    help="footage: AVI video (default), png image folders or Phantom .cine")
@@ -134,6 +141,8 @@ def add_arguments(parser):
     g.add_argument("--quality", type=int, default=75, help="MJPG quality 1..100 (75)")
     g.add_argument("--bit-depth", type=int, default=8,
                    help="8 (default); png: 16; cine: 10, 12, 16")
+    g.add_argument("--cine-packed", action="store_true",
+                   help="pack 10- or 12-bit .cine pixels")
     g.add_argument("--throws", type=int, default=1,
                    help="replicate throws: N > 1 writes throws/01 .. (1)")
     g.add_argument("--seed", type=int, default=42, help="random seed (42)")
@@ -160,6 +169,8 @@ def run(args):
         texture_amplitude=args.texture, draw_machine=not args.no_machine,
         draw_ruler=not args.no_ruler, read_noise_dn=args.noise, full_well_e=args.full_well_e,
         second_straw=args.second_straw, second_cross_s=args.second_cross_s,
+        second_flight_s=args.second_flight_s, cine_packed=args.cine_packed,
+        spin_axis=args.spin_axis, vignetting=args.vignetting,
         output_format=args.format, video_codec=args.codec, jpeg_quality=args.quality,
         bit_depth=args.bit_depth, throws=args.throws, seed=args.seed,
         scale_in_scene="m_per_px" if args.no_ruler else "ruler",
