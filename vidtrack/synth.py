@@ -39,6 +39,7 @@ number of frames.
 import json
 import math
 import os
+import re
 import shutil
 import tempfile
 import time
@@ -1105,6 +1106,16 @@ def _throw_truth(spec, throw, second):
     return out
 
 
+_FLAT_LIST = re.compile(r"\[[^\[\]{}]*\]")
+
+
+def _truth_text(obj):
+    """Indented JSON with every list of plain values on one line (full precision)."""
+    text = json.dumps(obj, indent=1, allow_nan=False)
+    return _FLAT_LIST.sub(lambda m: re.sub(r"\s*\n\s*", " ", m.group(0))
+                          .replace("[ ", "[").replace(" ]", "]"), text) + "\n"
+
+
 _CONVENTIONS = {
     "pixels": "u = column, v = row; the centre of pixel (row r, column c) is (u, v) = "
               "(c, r); the image spans [-0.5, width - 0.5] x [-0.5, height - 0.5]",
@@ -1191,15 +1202,16 @@ class SynthRun:
 
 def _scene_dict(spec, views, run_name, release):
     out = {"schema": 1, "run": {"name": run_name},
-           "factors": {"n_rpm": spec.n_rpm, "blade_angle_deg": spec.blade_angle_deg,
-                       "speed_kmh": spec.speed_kmh},
+           "factors": {"n_rpm": _plain_number(spec.n_rpm),
+                       "blade_angle_deg": _plain_number(spec.blade_angle_deg),
+                       "speed_kmh": _plain_number(spec.speed_kmh)},
            "physics": {"gravity_m_s2": spec.gravity_m_s2},
            "straw": {"cp_s_per_m": spec.cp_s_per_m},
            "machine": {"speed_kmh": spec.speed_kmh},
            "views": {}}
     for view in views:
         m = view.mapping
-        entry = {"source": _source_name(spec, view.name), "fps": spec.fps,
+        entry = {"source": _source_name(spec, view.name), "fps": _plain_number(spec.fps),
                  "axes": list(m.axes), "origin_px": list(m.origin_px)}
         if spec.scale_in_scene == "ruler":
             entry["ruler"] = {"length_m": view.ruler_length_m,
@@ -1211,6 +1223,12 @@ def _scene_dict(spec, views, run_name, release):
             entry["sync_frame"] = release[view.name]
         out["views"][view.name] = entry
     return out
+
+
+def _plain_number(value):
+    """A whole number as an int (``550``, not ``550.0``), anything else as a float."""
+    value = float(value)
+    return int(value) if value.is_integer() and abs(value) < 2 ** 53 else value
 
 
 def _check_out(out_dir, force):
@@ -1329,7 +1347,7 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
             if spec.throws == 1:
                 root_truth = truth
             else:
-                write_text(folder / TRUTH_FILE, json.dumps(truth, indent=1) + "\n")
+                write_text(folder / TRUTH_FILE, _truth_text(truth))
                 summaries.append({"folder": f"throws/{ti + 1:02d}",
                                   "truth": f"throws/{ti + 1:02d}/{TRUTH_FILE}",
                                   **{key: truth["truth"][key] for key in ("k", "state")}})
@@ -1338,7 +1356,7 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
             root_truth = {**head, "throws": summaries,
                           "k_mean": {f"k{i + 1}": float(v) for i, v in
                                      enumerate(k_all.mean(axis=0))}}
-        write_text(stage / TRUTH_FILE, json.dumps(root_truth, indent=1) + "\n")
+        write_text(stage / TRUTH_FILE, _truth_text(root_truth))
         write_scene(stage, _scene_dict(spec, views, run_name, release))
         names = sorted(p.name for p in stage.iterdir())
         for name in _replaceable(names):
