@@ -345,3 +345,47 @@ def test_cli_bad_options_exit_2_and_write_nothing(tmp_path, vidtrack_cli, bad):
     assert res.returncode == 2
     assert "error" in res.stderr and "Traceback" not in res.stderr
     assert not out.exists()
+
+
+# ---------------------------------------------------------------------------- datasets/run42
+
+def test_sample_run_is_what_its_recorded_command_makes():
+    import shlex
+    from pathlib import Path
+
+    from vidtrack.cli import build_parser
+    from vidtrack.cli.synth import spec_from_args
+
+    root = Path(__file__).resolve().parents[1]
+    readme = (root / "datasets" / "README.md").read_text(encoding="utf-8")
+    section = readme.split("## The sample run datasets/run42", 1)[1]
+    line = next(ln for ln in section.splitlines() if ln.startswith("vidtrack synth "))
+    args = build_parser().parse_args(shlex.split(line)[1:])
+    run = root / args.out
+    truth = load_truth(run)
+    assert spec_from_args(args).to_dict() == truth["spec"]
+    scene = load_scene(run)
+    assert scene.run_name == "run42" and scene.view_names == ("front", "top")
+    assert scene.cp_s_per_m == 0.115 and scene.v1_m_s == pytest.approx(2.0)
+    spec = SynthSpec(**{k: tuple(v) if isinstance(v, list) else v
+                        for k, v in truth["spec"].items()})
+    for view in ("front", "top"):
+        info = truth["views"][view]
+        tab = frame_table(truth, view)
+        vs = scene.views[view]
+        assert vs.m_per_px == pytest.approx(info["m_per_px"], rel=1e-12)
+        with open_source(vs.source, fps=vs.fps) as src:
+            assert len(src) == info["frames"] == spec.n_frames == 372
+            assert src.shape == (info["height_px"], info["width_px"])
+            assert src.fps_container == pytest.approx(30.0) and src.fps == 1200.0
+        fl = tab["t_s"] >= 0
+        xyz = position(tab["t_s"][fl], spec.state, spec.k, spec.cp_s_per_m, v1=scene.v1_m_s)
+        np.testing.assert_allclose(np.column_stack([tab["x_m"], tab["y_m"], tab["z_m"]])[fl],
+                                   xyz, atol=1e-12)
+        assert tab["fully_in_view"].all() and not tab["border_touch"].any()
+    # the front view shows the ascent and a descent
+    y = frame_table(truth, "front")["y_m"]
+    top = int(np.argmax(y))
+    assert 100 < top < 250 and y[-1] < y[top] - 0.3
+    size = sum(p.stat().st_size for p in run.iterdir())
+    assert size < 6e6

@@ -150,31 +150,38 @@ def add_arguments(parser):
                    help="write each view's release frame as sync_frame (default: auto)")
 
 
-def run(args):
-    import json
+def spec_from_args(args):
+    """The :class:`vidtrack.synth.SynthSpec` that parsed options describe."""
+    from vidtrack.synth import SynthSpec
 
-    from vidtrack.synth import SynthSpec, render_run
-
-    spec = SynthSpec(
+    return SynthSpec(
         k=args.k, cp_s_per_m=args.cp, state=args.state, speed_kmh=args.speed_kmh,
         model=args.model, straw_length_m=args.straw_length_m,
         straw_diameter_m=args.straw_diameter_m, spin_rad_s=args.spin_rad_s,
-        straw_grey=args.straw_grey, n_rpm=args.n_rpm, blade_angle_deg=args.blade_angle_deg,
-        blade_rpm=args.blade_rpm, release_frame=args.release_frame, views=args.views,
-        size_px=args.size, top_size_px=args.top_size, fps=args.fps,
-        playback_fps=args.playback_fps, flight_s=args.flight_s, frames=args.frames,
-        top_delay_s=args.top_delay_s, front_axes=args.front_axes, top_axes=args.top_axes,
-        m_per_px=args.m_per_px, leave_frame=args.leave_frame,
-        exposure_fraction=args.exposure, exposure_samples=args.exposure_samples,
-        texture_amplitude=args.texture, draw_machine=not args.no_machine,
-        draw_ruler=not args.no_ruler, read_noise_dn=args.noise, full_well_e=args.full_well_e,
-        second_straw=args.second_straw, second_cross_s=args.second_cross_s,
-        second_flight_s=args.second_flight_s, cine_packed=args.cine_packed,
-        spin_axis=args.spin_axis, vignetting=args.vignetting,
+        spin_axis=args.spin_axis, straw_grey=args.straw_grey, n_rpm=args.n_rpm,
+        blade_angle_deg=args.blade_angle_deg, blade_rpm=args.blade_rpm,
+        release_frame=args.release_frame, views=args.views, size_px=args.size,
+        top_size_px=args.top_size, fps=args.fps, playback_fps=args.playback_fps,
+        flight_s=args.flight_s, frames=args.frames, top_delay_s=args.top_delay_s,
+        front_axes=args.front_axes, top_axes=args.top_axes, m_per_px=args.m_per_px,
+        leave_frame=args.leave_frame, exposure_fraction=args.exposure,
+        exposure_samples=args.exposure_samples, texture_amplitude=args.texture,
+        vignetting=args.vignetting, draw_machine=not args.no_machine,
+        draw_ruler=not args.no_ruler, read_noise_dn=args.noise,
+        full_well_e=args.full_well_e, second_straw=args.second_straw,
+        second_cross_s=args.second_cross_s, second_flight_s=args.second_flight_s,
         output_format=args.format, video_codec=args.codec, jpeg_quality=args.quality,
-        bit_depth=args.bit_depth, throws=args.throws, seed=args.seed,
-        scale_in_scene="m_per_px" if args.no_ruler else "ruler",
+        bit_depth=args.bit_depth, cine_packed=args.cine_packed, throws=args.throws,
+        seed=args.seed, scale_in_scene="m_per_px" if args.no_ruler else "ruler",
         sync_in_scene=args.sync_in_scene)
+
+
+def run(args):
+    import json
+
+    from vidtrack.synth import render_run
+
+    spec = spec_from_args(args)
     result = render_run(args.out, spec, force=args.force, quiet=args.quiet)
     if args.json:
         print(json.dumps(result.to_dict(), indent=1))
