@@ -273,10 +273,11 @@ def test_leaving_the_frame_is_flagged(tmp_path):
     touching = tab["border_touch"]
     assert touching.any() and not touching[:20].any()
     assert not np.any(touching & ~tab["in_view"])
+    # out of view exactly where the whole silhouette is past the right or bottom edge
     gone = ~tab["in_view"]
-    r = load_truth(tmp_path / "x")["views"]["front"]["straw_radius_px"]
     off = (tab["u_px"] - 0.5 * tab["length_px"] > w) | (tab["v_px"] - 0.5 * tab["length_px"] > h)
-    assert np.all(gone[off]) and r > 0
+    assert off.any() and np.all(gone[off])
+    assert np.all(tab["coverage_px"][gone] == 0)
 
 
 def test_throws_and_top_delay(tmp_path):

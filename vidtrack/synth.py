@@ -580,7 +580,6 @@ def _frame_view(spec, name, throws):
 
     width, height = spec.view_size(name)
     axes = spec.view_axes(name)
-    ia, ib = _VIEW_INDEX[name]
     delay = spec.top_delay_s if name == "top" else 0.0
     t = _frame_times(spec, delay)
     if spec.leave_frame:
