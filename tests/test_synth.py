@@ -86,6 +86,16 @@ def test_straight_sides_are_exact():
     np.testing.assert_allclose(col, expect, atol=1e-12)
 
 
+def test_shot_noise_is_poisson():
+    from vidtrack._render import add_sensor_noise
+
+    rng = np.random.default_rng(3)
+    level, well = 0.4, 5000.0
+    out = add_sensor_noise(np.full((200, 200), level), rng, read_noise=0.0, full_well_e=well)
+    assert out.mean() == pytest.approx(level, rel=2e-3)
+    assert out.var() == pytest.approx(level / well, rel=0.05)
+
+
 def test_box_coverage_exact():
     cov = box_coverage(Box(2.25, 7.75, 1.0, 3.5), Roi(0, 6, 0, 10))
     assert cov.sum() == pytest.approx(5.5 * 2.5)
@@ -228,6 +238,9 @@ def test_formats_read_back_with_their_time_base(tmp_path):
             assert np.abs(m[i].astype(int) - a).mean() < 3.0        # lossy, close
             # the 12-bit frame is the same scene, finer
             assert np.abs(c[i] / 4095.0 - a / 255.0).max() < 0.03
+        # read noise: two frames differ in a static corner by sqrt(2) x (1.5 DN, rounded)
+        diff = p[0][:12, :12].astype(float) - p[9][:12, :12]
+        assert diff.std() == pytest.approx(math.sqrt(2 * (1.5 ** 2 + 1 / 12)), rel=0.2)
     for res in (png, ffv1, raw, mjpg, cine):
         scene = load_scene(res.out_dir)
         assert scene.views["front"].fps == 1200.0
@@ -239,11 +252,13 @@ def test_formats_read_back_with_their_time_base(tmp_path):
 def test_one_view_and_second_straw(tmp_path):
     spec = SynthSpec(size_px=(200, 120), views=("top",), release_frame=2, flight_s=0.06,
                      exposure_samples=2, second_straw=True, second_cross_s=0.03,
-                     second_flight_s=0.1, straw_diameter_m=0.02, output_format="png")
+                     second_flight_s=0.1, straw_diameter_m=0.02, output_format="png",
+                     sync_in_scene=True)
     render_run(tmp_path / "x", spec)
     scene = load_scene(tmp_path / "x")
     truth = load_truth(tmp_path / "x")
     assert scene.view_names == ("top",) and list(truth["views"]) == ["top"]
+    assert scene.views["top"].sync_frame == truth["views"]["top"]["release_frame"] == 2
     tab = frame_table(truth, "top")
     i = int(np.argmin(np.abs(tab["t_s"] - 0.03)))
     assert tab["t_s"][i] == pytest.approx(0.03, abs=1e-12)
@@ -266,6 +281,7 @@ def test_leaving_the_frame_is_flagged(tmp_path):
                      read_noise_dn=0.0)
     render_run(tmp_path / "x", spec)
     tab = frame_table(load_truth(tmp_path / "x"), "front")
+    assert load_scene(tmp_path / "x").views["front"].sync_frame == "auto"
     w, h = spec.size_px
     assert tab["fully_in_view"][:20].all()
     assert not tab["fully_in_view"][-1]
