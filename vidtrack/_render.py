@@ -12,8 +12,9 @@ coverage is exact (products of interval overlaps). A capsule's coverage is exact
 pixels entirely inside or outside it and for pixels crossed only by its straight sides
 (the area of the pixel inside a strip, in closed form); for pixels near its rounded
 ends it is the fraction of an ``s x s`` grid of sub-pixel points (centred in their
-cells) that lie inside: resolution ``1 / s**2`` (1/256 by default), with no bias in
-position because the grid is symmetric about the pixel centre.
+cells) that lie inside (16 x 16 by default: steps of 1/256, an error of at most a few
+hundredths of a pixel's area, with no bias in position because the grid is symmetric
+about the pixel centre).
 
 Intensities are floats in [0, 1] (fraction of full scale) until :func:`quantize`.
 """
