@@ -1,0 +1,513 @@
+"""Segmentation of moving objects against the background, and the coverage measurement.
+
+Internal to :mod:`vidtrack.tracker`. Two ways to look at a frame:
+
+- :meth:`Segmenter.coarse`: the whole frame, cheaply (integer absolute difference,
+  per-pixel threshold, block-reduced before the connected components), used only while
+  the straw is not being followed;
+- :meth:`Segmenter.segment`: a region of interest at full resolution (integer
+  operations), with the per-pixel threshold and, once the straw's grey level is known,
+  only changes *towards* that level (a shadow darkens a bright straw's background: not
+  the straw). Floating-point work is then confined to the box around the blob that is
+  measured (:meth:`Region.work`).
+
+:func:`measure` turns the straw's blob into its centroid, area, orientation and length
+from its **coverage** of each pixel: a pixel that the opaque straw covers by a fraction
+c shows ``f = b + c (s - b)`` (b the background, s the straw's grey level), so
+``c = (f - b) / (s - b)`` clipped to [0, 1]. Weighting by c instead of by ``|f - b|``
+keeps the centroid unbiased over a textured background, where ``|s - b|`` changes from
+pixel to pixel. Where ``|s - b|`` is within the noise the coverage cannot be read off
+the pixel; inside the straw's rod (its axis and width from the readable part) such a
+pixel gets the rod's coverage (:func:`_band_fill`).
+"""
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+#: Kernels of the 1- and 2-pixel dilations and closings.
+_K3 = np.ones((3, 3), np.uint8)
+_K5 = np.ones((5, 5), np.uint8)
+
+#: A pixel's coverage is read off it where ``|level - background|`` exceeds this fraction
+#: of the detection threshold (3 sigma at k = 5): the coverage's noise is then at most a
+#: third of the straw's full contrast.
+READABLE = 0.6
+
+#: Brightness changes (relative) below this are taken as no flicker.
+_GAIN_TOL = 0.01
+
+
+@dataclass
+class Blob:
+    """One connected component of a region of interest, measured.
+
+    Coordinates are full-frame pixels, OpenCV convention: pixel (col, row) has its
+    centre at (u, v) = (col, row).
+    """
+
+    label: int
+    u: float
+    v: float
+    mask_area: int
+    bbox: tuple          # (x0, y0, x1, y1) half-open, full frame
+    area: float = np.nan  # coverage sum, px^2
+    angle: float = np.nan
+    length: float = np.nan
+    width: float = np.nan
+    level: float = np.nan  # the straw's grey level read off this blob
+    touches_border: bool = False
+    touches_roi: bool = False
+    index: int = -1      # source index of the frame it was seen in
+    polarity: int = 0    # +1 brighter than the background, -1 darker
+    merged: bool = False  # touches a moving object of the other polarity
+
+
+class Segmenter:
+    """Thresholds and background of one view, ready for per-frame work.
+
+    Parameters
+    ----------
+    background : vidtrack.background.Background
+    k_sigma : float
+        Threshold in multiples of the noise.
+    """
+
+    def __init__(self, background, *, k_sigma):
+        self.bg = np.ascontiguousarray(background.image, dtype=np.float32)
+        self.thr = background.threshold(k=k_sigma)
+        self.shape = self.bg.shape
+        dtype = np.dtype(background.dtype)
+        self.top = float(np.iinfo(dtype).max) if dtype.kind in "ui" else 65535.0
+        self.dtype = dtype
+        self.bg_int = np.clip(np.rint(self.bg), 0, self.top).astype(dtype)
+        self.thr_int = np.clip(np.ceil(self.thr), 1, self.top).astype(dtype)
+        rows, cols = self.shape
+        self.decimate = max(1, int(np.ceil(max(rows, cols) / 320.0)))
+        d = self.decimate
+        self.small_size = (max(1, cols // d), max(1, rows // d))
+        # Pixels for the global gain (flicker): a sparse grid away from dark areas.
+        step = max(1, int(np.sqrt(rows * cols / 600.0)))
+        grid = np.zeros(self.shape, bool)
+        grid[step // 2::step, step // 2::step] = True
+        grid &= self.bg > max(8.0, 0.05 * float(self.bg.max()))
+        self.gain_index = np.flatnonzero(grid)
+        self.gain_ref = self.bg.reshape(-1)[self.gain_index]
+
+    # ---------------------------------------------------------------- global gain
+    def gain(self, frame):
+        """Ratio of this frame's brightness to the background's (median over a grid).
+
+        Lighting on mains power flickers at twice its frequency; the tracker scales the
+        background by this factor. Returns exactly 1.0 when the change is below 1 % or
+        there are too few pixels to tell.
+        """
+        if self.gain_index.size < 100:
+            return 1.0
+        ratio = frame.reshape(-1)[self.gain_index] / self.gain_ref
+        mid = ratio.size // 2
+        g = float(np.partition(ratio, mid)[mid])
+        if not np.isfinite(g) or g <= 0 or abs(g - 1.0) < _GAIN_TOL:
+            return 1.0
+        return g
+
+    def _bg_int(self, y0, y1, x0, x1, gain):
+        if gain == 1.0:
+            return self.bg_int[y0:y1, x0:x1]
+        return np.clip(np.rint(self.bg[y0:y1, x0:x1] * gain), 0, self.top).astype(self.dtype)
+
+    # ---------------------------------------------------------------- whole frame
+    def coarse(self, frame, gain=1.0):
+        """Boxes of moving objects in the whole frame (cheap).
+
+        Returns
+        -------
+        list of (x0, y0, x1, y1, count)
+            Half-open full-frame boxes and the number of foreground pixels in each,
+            largest first.
+        """
+        rows, cols = self.shape
+        ad = cv2.absdiff(frame, self._bg_int(0, rows, 0, cols, gain))
+        mask = cv2.compare(ad, self.thr_int, cv2.CMP_GT)
+        d = self.decimate
+        if d > 1:
+            small = cv2.resize(mask, self.small_size, interpolation=cv2.INTER_AREA)
+            # a block counts when at least 2 of its d*d pixels are foreground
+            small = cv2.compare(small, 255.0 * 1.5 / (d * d), cv2.CMP_GT)
+        else:
+            small = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((1, 2), np.uint8)) | \
+                cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((2, 1), np.uint8))
+        n, _, stats, _ = cv2.connectedComponentsWithStats(small, connectivity=8)
+        out = []
+        for k in range(1, n):
+            x, y, w, h, a = (int(s) for s in stats[k])
+            out.append((min(cols, x * d), min(rows, y * d), min(cols, (x + w) * d),
+                        min(rows, (y + h) * d), a * d * d))
+        out.sort(key=lambda b: -b[4])
+        return out
+
+    # ---------------------------------------------------------------- region of interest
+    def segment(self, frame, roi, *, gain=1.0, level=None, polarity=0):
+        """Components of the moving objects inside ``roi``.
+
+        Parameters
+        ----------
+        frame : numpy.ndarray
+            The full frame.
+        roi : (x0, y0, x1, y1)
+            Half-open box, clipped to the frame by the caller.
+        gain : float
+            Brightness of this frame relative to the background.
+        level : float or None
+            The straw's grey level; when known only changes towards it count.
+        polarity : int
+            Without a level: +1 only brightening, -1 only darkening, 0 both (a bright
+            straw on a dark blade are then two components, not one).
+
+        Returns
+        -------
+        Region
+        """
+        x0, y0, x1, y1 = roi
+        fi = frame[y0:y1, x0:x1]
+        bi = self._bg_int(y0, y1, x0, x1, gain)
+        ti = self.thr_int[y0:y1, x0:x1]
+        weak = None
+        if level is not None and np.isfinite(level):
+            pos = cv2.compare(cv2.subtract(fi, bi), ti, cv2.CMP_GT)
+            neg = cv2.compare(cv2.subtract(bi, fi), ti, cv2.CMP_GT)
+            up = cv2.compare(bi, float(level), cv2.CMP_LT)
+            lev = np.full_like(bi, int(np.clip(round(level), 0, self.top)))
+            weak = cv2.compare(cv2.absdiff(bi, lev), ti, cv2.CMP_LE)
+            mask = (pos & up) | (neg & ~up)
+        elif polarity > 0:
+            mask = cv2.compare(cv2.subtract(fi, bi), ti, cv2.CMP_GT)
+        elif polarity < 0:
+            mask = cv2.compare(cv2.subtract(bi, fi), ti, cv2.CMP_GT)
+        else:
+            mask = cv2.compare(cv2.absdiff(fi, bi), ti, cv2.CMP_GT)
+        strict = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, _K3)
+        m8 = strict
+        if weak is not None:
+            # Where the straw's level is within the threshold of the background the
+            # straw cannot be seen; such pixels next to a detection keep its parts in
+            # one component (their coverage is filled in by measure()).
+            m8 = strict | (cv2.dilate(strict, _K5) & weak)
+        n, labels, stats, cents = cv2.connectedComponentsWithStats(m8, connectivity=8)
+        return Region(roi=roi, frame=frame, seg=self, gain=gain, labels=labels, stats=stats,
+                      centroids=cents, n=n, strict=strict)
+
+
+@dataclass
+class Region:
+    """A segmented region of interest (integer masks; floats on demand)."""
+
+    roi: tuple
+    frame: np.ndarray
+    seg: Segmenter
+    gain: float
+    labels: np.ndarray
+    stats: np.ndarray
+    centroids: np.ndarray
+    n: int
+    strict: np.ndarray   # the detections (uint8 0/255) before weak pixels joined them
+
+    def components(self, min_area, frame_shape):
+        """Blobs with at least ``min_area`` mask pixels (unmeasured: mask centroid)."""
+        x0, y0, x1, y1 = self.roi
+        rows, cols = frame_shape
+        out = []
+        for k in range(1, self.n):
+            x, y, w, h, a = (int(s) for s in self.stats[k])
+            if a < min_area:
+                continue
+            bx0, by0, bx1, by1 = x0 + x, y0 + y, x0 + x + w, y0 + y + h
+            blob = Blob(label=k, u=x0 + float(self.centroids[k][0]),
+                        v=y0 + float(self.centroids[k][1]), mask_area=a,
+                        bbox=(bx0, by0, bx1, by1))
+            blob.touches_border = bx0 <= 0 or by0 <= 0 or bx1 >= cols or by1 >= rows
+            blob.touches_roi = ((x <= 0 and x0 > 0) or (y <= 0 and y0 > 0)
+                                or (x + w >= x1 - x0 and x1 < cols)
+                                or (y + h >= y1 - y0 and y1 < rows))
+            out.append(blob)
+        return out
+
+    def work(self, group, level, *, margin):
+        """Float arrays over the box of the components ``group``, grown by ``margin``.
+
+        Returns
+        -------
+        Work
+        """
+        st = self.stats
+        gx0 = min(int(st[k][0]) for k in group)
+        gy0 = min(int(st[k][1]) for k in group)
+        gx1 = max(int(st[k][0] + st[k][2]) for k in group)
+        gy1 = max(int(st[k][1] + st[k][3]) for k in group)
+        h, w = self.labels.shape
+        m = int(math.ceil(margin))
+        bx0, by0 = max(0, gx0 - m), max(0, gy0 - m)
+        bx1, by1 = min(w, gx1 + m), min(h, gy1 + m)
+        ox, oy = self.roi[0], self.roi[1]
+        seg = self.seg
+        f = self.frame[oy + by0:oy + by1, ox + bx0:ox + bx1].astype(np.float32)
+        b = seg.bg[oy + by0:oy + by1, ox + bx0:ox + bx1]
+        if self.gain != 1.0:
+            b = b * np.float32(self.gain)
+        t = seg.thr[oy + by0:oy + by1, ox + bx0:ox + bx1]
+        labels = self.labels[by0:by1, bx0:bx1]
+        if len(group) == 1:
+            sel = labels == group[0]
+            others = (labels > 0) & ~sel
+        else:
+            sel = np.isin(labels, group)
+            others = (labels > 0) & ~sel
+        sel &= self.strict[by0:by1, bx0:bx1] > 0
+        d = f - b
+        den = np.float32(level) - b
+        return Work(origin=(ox + bx0, oy + by0), f=f, b=b, t=t, d=d, den=den,
+                    sel=sel.view(np.uint8), others=others)
+
+
+@dataclass
+class Work:
+    """Float32 arrays of a box around the straw (``origin``: its top-left pixel)."""
+
+    origin: tuple
+    f: np.ndarray
+    b: np.ndarray
+    t: np.ndarray
+    d: np.ndarray
+    den: np.ndarray
+    sel: np.ndarray      # uint8 0/1: the straw's detected pixels
+    others: np.ndarray   # bool: pixels of other components
+
+
+def read_level(region, blob):
+    """The straw's grey level seen in ``blob``: median of its most changed pixels.
+
+    Fully covered pixels show the straw's own level whatever the background; among a
+    blob's pixels they are those that differ most from the background (partly covered
+    ones differ less for the same background). The median of the top third is taken.
+    """
+    x, y, w, h = (int(s) for s in region.stats[blob.label][:4])
+    ox, oy = region.roi[0], region.roi[1]
+    sel = region.labels[y:y + h, x:x + w] == blob.label
+    f = region.frame[oy + y:oy + y + h, ox + x:ox + x + w][sel].astype(np.float32)
+    b = region.seg.bg[oy + y:oy + y + h, ox + x:ox + x + w][sel]
+    if region.gain != 1.0:
+        b = b * np.float32(region.gain)
+    if f.size == 0:
+        return np.nan
+    ad = np.abs(f - b)
+    k = max(1, f.size // 3)
+    top = np.argpartition(ad, f.size - k)[f.size - k:]
+    return float(np.median(f[top]))
+
+
+def other_behind(work, level, *, width, min_area):
+    """Take a moving object of the other polarity touching the straw as its background.
+
+    A bright straw riding a dark blade (or crossing a dark object) does not cover the
+    static background but the object: its coverage must be read against the object's
+    level. The object's pixels near the straw (changed *away* from the straw's level)
+    are closed over the straw's width, and inside that region the background becomes the
+    object's median level (in place, in ``work``).
+
+    Returns
+    -------
+    bool
+        True when such an object touches the straw (the frame is then flagged).
+    """
+    sel = work.sel
+    opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
+    if np.count_nonzero(cv2.dilate(sel, _K5) & opp) < min_area:
+        return False
+    k = 2 * int(math.ceil(max(width or 1.0, 1.0))) + 3
+    kernel = np.ones((k, k), np.uint8)
+    near = cv2.dilate(sel, kernel).view(bool)
+    obj = opp.view(bool) & near
+    if not obj.any():
+        return True
+    obj_level = np.float32(np.median(work.f[obj]))
+    behind = cv2.morphologyEx(opp, cv2.MORPH_CLOSE, kernel).view(bool) & near
+    b = work.b.copy()
+    b[behind] = obj_level
+    work.b = b
+    work.d = work.f - b
+    work.den = np.float32(level) - b
+    return True
+
+
+def _axis(c):
+    """Centroid, unit axis and the two second moments of a coverage image."""
+    m = cv2.moments(c, False)
+    m00 = m["m00"]
+    if not m00 > 0:
+        return None
+    a, bb, cc = m["mu20"] / m00, m["mu11"] / m00, m["mu02"] / m00
+    ang = 0.5 * np.arctan2(2.0 * bb, a - cc)
+    half = 0.5 * (a + cc)
+    rad = np.hypot(0.5 * (a - cc), bb)
+    return (m["m10"] / m00, m["m01"] / m00, np.cos(ang), np.sin(ang), half + rad,
+            max(half - rad, 0.0))
+
+
+def _band_fill(c, sup, unread, readable, *, width, length):
+    """Coverage of unreadable pixels from a rod model along the readable part's axis.
+
+    The rod has the readable part's axis and the reference ``width``; along the axis it
+    spans the readable part's covered pixels, extended towards an end that runs into
+    unreadable pixels until it has the reference ``length``. Returns the pixels filled
+    (to be added to the support).
+    """
+    ax = _axis(np.where(sup, c, np.float32(0.0)))
+    if ax is None:
+        return None
+    cx, cy, ca, sa, lam1, lam2 = ax
+    if not (width and np.isfinite(width) and width > 0):
+        width = float(np.sqrt(12.0 * lam2)) if lam2 > 0 else 1.0
+    rows, cols = c.shape
+    yy, xx = np.mgrid[0:rows, 0:cols]
+    along = (xx - cx) * ca + (yy - cy) * sa
+    across = np.abs(-(xx - cx) * sa + (yy - cy) * ca)
+    inband = across <= 0.5 * width
+    seen = readable & sup & (c > 0.5)
+    if not seen.any():
+        return None
+    lo, hi = float(along[seen].min()), float(along[seen].max())
+    # readable covered pixels on the axis beyond the detections (below the detection
+    # threshold but readable) extend the rod while they continue it without a gap
+    more = np.sort(along[readable & inband & (c > 0.5) & ~sup])
+    if more.size:
+        above = more[more > hi]
+        for a in above:
+            if a - hi > 1.5:
+                break
+            hi = float(a)
+        below = more[more < lo][::-1]
+        for a in below:
+            if lo - a > 1.5:
+                break
+            lo = float(a)
+    if length and np.isfinite(length) and hi - lo < length - 1.0:
+        lo_hidden = (~readable & inband & (along < lo) & (along > lo - 2.5)).any()
+        hi_hidden = (~readable & inband & (along > hi) & (along < hi + 2.5)).any()
+        short = length - 1.0 - (hi - lo)
+        if lo_hidden and hi_hidden:
+            lo, hi = lo - short / 2, hi + short / 2
+        elif lo_hidden:
+            lo -= short
+        elif hi_hidden:
+            hi += short
+    prof = np.clip(0.5 * width + 0.5 - across, 0.0, 1.0)
+    prof *= np.clip(np.minimum(along - lo, hi - along) + 0.5, 0.0, 1.0)
+    band = prof > 0
+    hidden = band & ~readable
+    c[hidden] = prof[hidden]
+    return band
+
+
+def measure(work, blob, level, *, width=None, length=None):
+    """Coverage-weighted centroid, area, orientation and length of the straw (in place).
+
+    Parameters
+    ----------
+    work : Work
+        The box around the straw's components (:meth:`Region.work`).
+    blob : Blob
+        The straw's main component; its fields are filled in.
+    level : float
+        The straw's grey level.
+    width, length : float, optional
+        The straw's reference width and length (px), for the pixels where the straw
+        cannot be seen (its level within the noise of the background's).
+
+    Returns
+    -------
+    Blob
+        ``blob``, with ``u, v`` the coverage centroid (px), ``area`` the coverage sum
+        (px^2), ``angle`` the orientation of the major axis in (-pi/2, pi/2] from +u
+        towards +v, ``length`` and ``width`` ``sqrt(12 lambda)`` of the coverage's
+        second moments (exact for a uniform rectangle).
+
+    Notes
+    -----
+    The support is the detected pixels grown by one pixel, without other components.
+    Unreadable pixels (``|level - background|`` below :data:`READABLE` times the
+    threshold) inside a rod along the readable part's axis get the rod's coverage;
+    other unreadable pixels of the support get the normalised average of their
+    readable neighbours.
+    """
+    others = work.others
+    support = cv2.dilate(work.sel, _K3)
+    support[others] = 0
+    b, d, t, den = work.b, work.d, work.t, work.den
+    readable = np.abs(den) > np.float32(READABLE) * t
+    c = np.zeros_like(d)
+    np.divide(d, den, out=c, where=readable)
+    np.clip(c, 0.0, 1.0, out=c)
+    sup = support.view(bool)
+    unread = sup & ~readable
+    if unread.any():
+        c_read = c.copy()
+        band = _band_fill(c, sup, unread, readable, width=width, length=length)
+        if band is not None:
+            # once more with the axis of the completed rod (a partly hidden rod's
+            # visible part tilts the first axis)
+            sup1 = (sup & readable) | (band & ~others)
+            c2 = c_read.copy()
+            band2 = _band_fill(c2, sup1, sup1 & ~readable, readable, width=width,
+                               length=length)
+            if band2 is not None:
+                band, c = band2, c2
+            band &= ~others
+            sup = (sup & readable) | band
+            unread[:] = False
+    if unread.any():
+        # normalised 3 x 3 averages of the readable coverage, twice (2 px deep)
+        w = (sup & ~unread).astype(np.float32)
+        cw = c * w
+        for _ in range(2):
+            num = cv2.blur(cw, (3, 3), borderType=cv2.BORDER_CONSTANT)
+            cnt = cv2.blur(w, (3, 3), borderType=cv2.BORDER_CONSTANT)
+            got = unread & (cnt > 0)
+            c[got] = num[got] / cnt[got]
+            w[got] = 1.0
+            cw = c * w
+            unread &= ~got
+            if not unread.any():
+                break
+    c[~sup] = 0.0
+    m = cv2.moments(c, False)
+    m00 = m["m00"]
+    x0, y0 = work.origin
+    if not m00 > 0:
+        blob.area = 0.0
+        return blob
+    blob.u = x0 + m["m10"] / m00
+    blob.v = y0 + m["m01"] / m00
+    blob.area = float(m00)
+    a, bb, cc = m["mu20"] / m00, m["mu11"] / m00, m["mu02"] / m00
+    half = 0.5 * (a + cc)
+    rad = np.hypot(0.5 * (a - cc), bb)
+    lam1, lam2 = half + rad, max(half - rad, 0.0)
+    blob.length = float(np.sqrt(12.0 * lam1))
+    blob.width = float(np.sqrt(12.0 * lam2))
+    ang = 0.5 * np.arctan2(2.0 * bb, a - cc)
+    if ang <= -np.pi / 2:
+        ang += np.pi
+    blob.angle = float(ang)
+    blob.level = level
+    return blob
+
+
+def work_margin(width, length, bbox):
+    """Margin (px) around the straw's components that the measurement may need."""
+    w = width if width and np.isfinite(width) else 1.0
+    extra = 0.0
+    if length and np.isfinite(length):
+        extra = max(0.0, length - max(bbox[2] - bbox[0], bbox[3] - bbox[1]))
+    return max(3.0 + extra, 2 * math.ceil(max(w, 1.0)) + 4)

@@ -1,0 +1,309 @@
+"""The two-view merge: both tracks on one time base, the shared X checked, the 3-D track.
+
+The ``front`` view sees world X and Y, the ``top`` view X and Z (SPEC "Views"). Both see
+X, which is how they are put on one clock and checked against each other:
+
+1. **Time zero.** A view's ``sync`` is a frame index (the frame at which t = 0, from
+   ``scene.toml``'s ``sync_frame``) or ``"auto"``. With ``"auto"`` the reference view
+   (``front`` when it has a detected release, else a view that has one) takes t = 0 at
+   its release instant (:attr:`vidtrack.tracker.Track.release_t_s`, between frames);
+   without any release the first usable frame of the reference view is t = 0 (noted).
+2. **The other view's offset.** A view with ``"auto"`` that is not the reference is
+   shifted onto the reference's clock by the offset that minimises the mean squared
+   disagreement of the shared X (its X linearly interpolated between its usable frames,
+   never across gaps): a grid of a quarter frame, then Brent's method to a small
+   fraction of a frame. X must change by at least 5 pixels over the overlap.
+3. **The check.** On the common clock the RMS difference of the two X measurements is
+   reported (m and px); a warning is recorded when it exceeds the coarser view's pixel
+   scale: the views disagree (scale, origin or sync).
+4. **The world track.** Rows at the reference view's frames from t = 0 on: x from the
+   reference view (from the other where the reference has no usable point), y from
+   ``front``, z from ``top``; a coordinate of the other view is interpolated between its
+   usable frames no more than 2 of its frames apart. NaN where not measured; with one
+   view its missing axis is NaN throughout.
+
+Only usable points (flags 0) enter: flagged frames never become world coordinates.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from vidtrack.errors import TrackError
+
+__all__ = ["WorldTrack", "merge_tracks", "view_world", "WORLD_COLUMNS"]
+
+#: Columns of :attr:`WorldTrack.data`.
+WORLD_COLUMNS = ("t_s", "x_m", "y_m", "z_m")
+_AXES = ("x", "y", "z")
+
+
+@dataclass(frozen=True, eq=False)
+class WorldTrack:
+    """The straw's world track from one or two views.
+
+    Attributes
+    ----------
+    data : pandas.DataFrame
+        Columns ``t_s`` (s since the release, t = 0), ``x_m``, ``y_m``, ``z_m`` (world
+        frame of SPEC.md, m; NaN where not measured).
+    t0_s : dict
+        View -> time in that view's source clock (``Track.data["t_s"]``) that is t = 0.
+    sync : dict
+        View -> how its t = 0 was found (``"sync_frame 12"``, ``"release"``,
+        ``"shared x"``, ``"first usable frame"``).
+    reference : str
+        The view whose frames are the rows.
+    x_rms_m, x_rms_px : float or None
+        RMS disagreement of the shared X between the views (None with one view or no
+        overlap); in px of the coarser view.
+    x_points : int
+        Points in that comparison.
+    warnings : tuple of str
+        Disagreement beyond the pixel scale, missing releases, and the like.
+    """
+
+    data: pd.DataFrame
+    t0_s: dict
+    sync: dict
+    reference: str
+    x_rms_m: float | None = None
+    x_rms_px: float | None = None
+    x_points: int = 0
+    warnings: tuple = ()
+
+    def to_dict(self):
+        """A JSON-ready summary (not the rows)."""
+        return {"rows": int(len(self.data)), "t0_s": dict(self.t0_s), "sync": dict(self.sync),
+                "reference": self.reference, "x_rms_m": self.x_rms_m,
+                "x_rms_px": self.x_rms_px, "x_points": int(self.x_points),
+                "measured": {a: int(np.count_nonzero(np.isfinite(self.data[f"{a}_m"])))
+                             for a in _AXES},
+                "warnings": list(self.warnings)}
+
+
+def view_world(track, mapping):
+    """Usable points of one view in world metres on its source clock.
+
+    Parameters
+    ----------
+    track : vidtrack.tracker.Track
+    mapping : calibration.ViewMapping
+        The view's pixel -> world mapping.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``frame``, ``t_s`` (source clock) and one ``<axis>_m`` column per world
+        axis the view sees, for the usable rows only.
+    """
+    d = track.data[track.usable]
+    w = mapping.pixel_to_world(d[["u_px", "v_px"]].to_numpy(dtype=np.float64)) \
+        if len(d) else np.empty((0, 2))
+    out = {"frame": d["frame"].to_numpy(), "t_s": d["t_s"].to_numpy(dtype=np.float64)}
+    for k, axis in enumerate(mapping.world_axes):
+        out[f"{axis}_m"] = w[:, k]
+    return pd.DataFrame(out)
+
+
+def _interp_gapless(t_new, t, y, max_step):
+    """Linear interpolation of y(t) at t_new, NaN outside [t0, t1] or across gaps."""
+    out = np.full(np.shape(t_new), np.nan)
+    if t.size < 2:
+        return out
+    k = np.searchsorted(t, t_new)
+    ok = (k > 0) & (k < t.size)
+    k1 = np.clip(k, 1, t.size - 1)
+    ta, tb = t[k1 - 1], t[k1]
+    ok &= (tb - ta) <= max_step
+    frac = np.where(tb > ta, (t_new - ta) / np.where(tb > ta, tb - ta, 1.0), 0.0)
+    val = y[k1 - 1] + frac * (y[k1] - y[k1 - 1])
+    exact = (k < t.size) & (t[np.clip(k, 0, t.size - 1)] == t_new)
+    val = np.where(exact, y[np.clip(k, 0, t.size - 1)], val)
+    ok |= exact
+    out[ok] = val[ok]
+    return out
+
+
+def _frame_step(track):
+    t = track.data["t_s"].to_numpy(dtype=np.float64)
+    steps = np.diff(t)
+    steps = steps[steps > 0]
+    if not steps.size:
+        return 1.0
+    return float(np.median(steps))
+
+
+def _shared_x_offset(ref_w, t0_ref, other_w, other_step, *, min_overlap, name, scale):
+    """t0 of the other view (its clock) that best matches its X to the reference's."""
+    from scipy.optimize import minimize_scalar
+
+    tr = ref_w["t_s"].to_numpy() - t0_ref
+    xr = ref_w["x_m"].to_numpy()
+    to = other_w["t_s"].to_numpy()
+    xo = other_w["x_m"].to_numpy()
+    if tr.size < min_overlap or to.size < min_overlap:
+        raise TrackError(f"view {name}: too few usable points to find its offset from the "
+                         f"shared X ({to.size} here, {tr.size} in the reference view; "
+                         f"need {min_overlap}); give views.{name}.sync_frame")
+    max_step = 2.5 * other_step
+
+    def cost(t0):
+        xi = _interp_gapless(tr + t0, to, xo, max_step)
+        ok = np.isfinite(xi)
+        if np.count_nonzero(ok) < min_overlap:
+            return np.inf
+        return float(np.mean((xi[ok] - xr[ok]) ** 2))
+
+    lo = to[0] - tr[-1]
+    hi = to[-1] - tr[0]
+    grid = np.arange(lo, hi + 1e-12, 0.25 * other_step)
+    costs = np.array([cost(g) for g in grid])
+    if not np.isfinite(costs).any():
+        raise TrackError(f"view {name}: its usable frames never overlap the reference view's "
+                         "in time; give views.<view>.sync_frame")
+    k = int(np.argmin(costs))
+    res = minimize_scalar(cost, bounds=(grid[k] - 0.5 * other_step, grid[k] + 0.5 * other_step),
+                          method="bounded", options={"xatol": 1e-4 * other_step})
+    t0 = float(res.x) if np.isfinite(res.fun) and res.fun <= costs[k] else float(grid[k])
+    xi = _interp_gapless(tr + t0, to, xo, max_step)
+    ok = np.isfinite(xi)
+    if np.ptp(xr[ok]) < 5.0 * scale:
+        raise TrackError(f"view {name}: the shared X changes by only "
+                         f"{np.ptp(xr[ok]) / scale:.2g} px over the common frames, too little "
+                         f"to find the offset; give views.{name}.sync_frame")
+    return t0
+
+
+def merge_tracks(tracks, mappings, *, sync=None, min_overlap=10):
+    """Merge one or two views' tracks into the world track.
+
+    Parameters
+    ----------
+    tracks : dict of str to vidtrack.tracker.Track
+        ``{"front": ..., "top": ...}`` (one or both).
+    mappings : dict of str to calibration.ViewMapping
+        Each view's pixel -> world mapping (``ViewSpec.mapping()``).
+    sync : dict of str to int or "auto", optional
+        Per view, the frame index (file frame, as in ``Track.data["frame"]``) at which
+        t = 0, or ``"auto"`` (default for every view).
+    min_overlap : int, optional
+        Least number of common points to find or check an offset.
+
+    Returns
+    -------
+    WorldTrack
+
+    Raises
+    ------
+    TrackError
+        No view, an unknown view, a view without a mapping or without usable points, a
+        ``sync_frame`` that is not in the track, or an offset that the shared X cannot
+        fix (too little overlap, X does not change).
+    """
+    if not tracks:
+        raise TrackError("no view to merge")
+    names = [v for v in ("front", "top") if v in tracks]
+    unknown = set(tracks) - {"front", "top"}
+    if unknown:
+        raise TrackError(f"unknown view(s) {sorted(unknown)}: expected front and/or top")
+    sync = dict(sync or {})
+    world = {}
+    steps = {}
+    for v in names:
+        if v not in mappings:
+            raise TrackError(f"view {v}: no pixel -> world mapping given")
+        world[v] = view_world(tracks[v], mappings[v])
+        steps[v] = _frame_step(tracks[v])
+        if not len(world[v]):
+            raise TrackError(f"view {v}: no usable point (every frame is flagged or lost)")
+    warnings = []
+    t0, how = {}, {}
+    for v in names:
+        s = sync.get(v, "auto")
+        if s is None or s == "auto":
+            continue
+        if isinstance(s, bool) or not isinstance(s, (int, np.integer)):
+            raise TrackError(f"view {v}: sync must be a frame index or \"auto\", got {s!r}")
+        rows = tracks[v].data.index[tracks[v].data["frame"] == int(s)]
+        if not len(rows):
+            fr = tracks[v].data["frame"]
+            raise TrackError(f"view {v}: sync_frame {s} is not among its frames "
+                             f"({int(fr.iloc[0])}..{int(fr.iloc[-1])})")
+        t0[v] = float(tracks[v].data.loc[rows[0], "t_s"])
+        how[v] = f"sync_frame {int(s)}"
+    auto = [v for v in names if v not in t0]
+    if t0:
+        ref = names[0] if names[0] in t0 else next(v for v in names if v in t0)
+    else:
+        with_rel = [v for v in names if tracks[v].release_t_s is not None]
+        ref = with_rel[0] if with_rel else names[0]
+        if with_rel:
+            t0[ref] = float(tracks[ref].release_t_s)
+            how[ref] = "release"
+        else:
+            t0[ref] = float(world[ref]["t_s"].iloc[0])
+            how[ref] = "first usable frame"
+            warnings.append(f"view {ref}: no release detected; t = 0 is its first usable "
+                            "frame")
+        auto = [v for v in auto if v != ref]
+    for v in auto:
+        t0[v] = _shared_x_offset(world[ref], t0[ref], world[v], steps[v],
+                                 min_overlap=min_overlap, name=v,
+                                 scale=max(mappings[ref].m_per_px, mappings[v].m_per_px))
+        how[v] = "shared x"
+    # the check of the shared X
+    x_rms_m = x_rms_px = None
+    x_points = 0
+    if len(names) == 2:
+        other = names[1] if ref == names[0] else names[0]
+        tr = world[ref]["t_s"].to_numpy() - t0[ref]
+        xi = _interp_gapless(tr + t0[other], world[other]["t_s"].to_numpy(),
+                             world[other]["x_m"].to_numpy(), 2.5 * steps[other])
+        ok = np.isfinite(xi)
+        x_points = int(np.count_nonzero(ok))
+        if x_points:
+            diff = xi[ok] - world[ref]["x_m"].to_numpy()[ok]
+            x_rms_m = float(np.sqrt(np.mean(diff ** 2)))
+            scale = max(mappings[ref].m_per_px, mappings[other].m_per_px)
+            x_rms_px = x_rms_m / scale
+            if x_rms_m > scale:
+                warnings.append(
+                    f"the views disagree on X by {x_rms_m * 1000:.3g} mm RMS "
+                    f"({x_rms_px:.2f} px) over {x_points} points, more than the pixel scale "
+                    f"({scale * 1000:.3g} mm): check the scales, origins and sync")
+        else:
+            warnings.append("the views have no usable points at common times: X not checked")
+    data = _world_rows(tracks, world, t0, ref, names, steps)
+    return WorldTrack(data=data, t0_s=t0, sync=how, reference=ref, x_rms_m=x_rms_m,
+                      x_rms_px=x_rms_px, x_points=x_points, warnings=tuple(warnings))
+
+
+def _world_rows(tracks, world, t0, ref, names, steps):
+    t_ref = tracks[ref].data["t_s"].to_numpy(dtype=np.float64) - t0[ref]
+    keep = t_ref >= -1e-9 * max(1.0, abs(t0[ref]))
+    t_rows = t_ref[keep]
+    cols = {a: np.full(t_rows.size, np.nan) for a in _AXES}
+    wr = world[ref]
+    tw = wr["t_s"].to_numpy() - t0[ref]
+    pos = np.searchsorted(t_rows, tw)
+    inside = (pos < t_rows.size)
+    inside[inside] &= np.isclose(t_rows[pos[inside]], tw[inside], rtol=0, atol=1e-12)
+    for a in _AXES:
+        if f"{a}_m" in wr:
+            cols[a][pos[inside]] = wr[f"{a}_m"].to_numpy()[inside]
+    for v in names:
+        if v == ref:
+            continue
+        wv = world[v]
+        tv = wv["t_s"].to_numpy() - t0[v]
+        for a in _AXES:
+            if f"{a}_m" not in wv:
+                continue
+            vals = _interp_gapless(t_rows, tv, wv[f"{a}_m"].to_numpy(), 2.5 * steps[v])
+            missing = ~np.isfinite(cols[a])
+            cols[a][missing] = vals[missing]
+    data = pd.DataFrame({"t_s": t_rows, "x_m": cols["x"], "y_m": cols["y"], "z_m": cols["z"]})
+    measured = np.isfinite(data[["x_m", "y_m", "z_m"]].to_numpy()).any(axis=1)
+    return data[measured].reset_index(drop=True)

@@ -1,0 +1,596 @@
+"""The straw tracker: one view's footage to a per-frame track in pixels.
+
+>>> from vidtrack.frames import open_source                     # doctest: +SKIP
+>>> from vidtrack.tracker import track                          # doctest: +SKIP
+>>> with open_source("run42/front.avi", fps=1200) as src:       # doctest: +SKIP
+...     tr = track(src, view="front")
+>>> tr.data.head()                                              # doctest: +SKIP
+>>> tr.data[tr.usable]                                          # the frames a fit may use
+
+How it works (details in ``docs/tracker.md``):
+
+1. **Background and noise** (:mod:`vidtrack.background`): the per-pixel median of frames
+   spread over the first part of the footage (frames the pass decodes anyway: no
+   second decoding), the noise from the MAD of frame differences and a per-pixel noise
+   map; the threshold is ``k_sigma`` times the noise.
+2. **Finding the straw** while it is not followed: moving blobs of the whole frame
+   (block-reduced, cheap) start tentative tracklets; one seen in 3 consecutive frames,
+   moving steadily, is the straw (nearest the stream's centre line when one is given).
+3. **Following it**: only a region of interest around the position predicted from the
+   last clean positions is segmented; among its blobs the straw is the one nearest the
+   prediction within a gate, changes are counted only *towards* the straw's own grey
+   level (a shadow is not the straw), and another blob is never the straw.
+4. **Measuring it**: the coverage-weighted centroid (unbiased over a textured
+   background), area, orientation and length from second moments
+   (:mod:`vidtrack._segment`).
+5. **Afterwards** (:mod:`vidtrack._refine`): points off the smooth path are flagged,
+   the release (first frame of free flight) is found, short gaps are bridged.
+
+Flags (bit field, column ``flags``; a frame is usable for fitting only when it is 0):
+
+======  ===============  ===========================================================
+value   name             meaning
+======  ===============  ===========================================================
+1       BORDER           the straw touches the image border (partly out of view)
+2       BLADE            the straw overlaps the blade region (``blade_region``)
+4       MERGED           the straw's blob merged with or touches another moving blob
+8       LOST             not found in this frame (u, v are NaN)
+16      PREDICTED        gap bridged: u, v interpolated from the clean neighbours
+32      PRE_RELEASE      before the detected release (still on the blade)
+64      OUTLIER          off the smooth path of its clean neighbours
+======  ===============  ===========================================================
+"""
+
+import math
+import statistics
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from vidtrack import _refine
+from vidtrack._progress import progress
+from vidtrack._segment import Segmenter, measure, other_behind, read_level, work_margin
+from vidtrack._select import Acquirer, Intruders, Predictor
+from vidtrack.background import Background, estimate_background, sample_indices
+from vidtrack.errors import TrackError
+
+__all__ = ["Track", "track", "FLAGS", "BORDER", "BLADE", "MERGED", "LOST", "PREDICTED",
+           "PRE_RELEASE", "OUTLIER", "TRACK_COLUMNS", "describe_flags"]
+
+BORDER = 1
+BLADE = 2
+MERGED = 4
+LOST = 8
+PREDICTED = 16
+PRE_RELEASE = 32
+OUTLIER = 64
+
+#: Flag names by bit value.
+FLAGS = {BORDER: "border", BLADE: "blade", MERGED: "merged", LOST: "lost",
+         PREDICTED: "predicted", PRE_RELEASE: "pre_release", OUTLIER: "outlier"}
+
+#: Columns of :attr:`Track.data`, in order.
+TRACK_COLUMNS = ("frame", "t_s", "u_px", "v_px", "area_px", "angle_rad", "length_px", "flags")
+
+#: Memory the start-of-footage buffer for the background may take (bytes).
+_WARMUP_BYTES = 96 * 1024 * 1024
+
+
+def describe_flags(value):
+    """Names of the bits set in a flags value, e.g. ``describe_flags(12) -> ('merged', 'lost')``."""
+    return tuple(name for bit, name in FLAGS.items() if int(value) & bit)
+
+
+@dataclass(frozen=True, eq=False)
+class Track:
+    """One view's track of the straw, one row per frame of the source.
+
+    Attributes
+    ----------
+    data : pandas.DataFrame
+        Columns ``frame`` (0-based frame index in the file), ``t_s`` (time of the frame
+        in s, relative to the file's first frame, from the source's time base),
+        ``u_px, v_px`` (coverage centroid: column, row; pixel (c, r) has its centre at
+        (c, r)), ``area_px`` (coverage sum, px^2), ``angle_rad`` (major axis from +u
+        towards +v, in (-pi/2, pi/2]), ``length_px`` (``sqrt(12 lambda_max)`` of the
+        coverage's second moments: a rod's length), ``flags`` (see the module).
+    view : str or None
+        ``"front"``, ``"top"`` or None.
+    release_frame : int or None
+        File frame index of the first frame of free flight; None when the release is
+        not in view.
+    release_note : str
+        How the release was decided.
+    release_t_s : float or None
+        The release instant in the source's clock (s): between frames, from where the
+        path's acceleration jumps; the release frame's time when the straw was first
+        seen already flying; None when the release is not in view.
+    fps : float or None
+        The source's capture rate.
+    frame_shape : tuple of int
+        ``(rows, cols)``.
+    noise_sigma : float
+        Measured noise of a static pixel (grey levels).
+    k_sigma : float
+        Threshold in multiples of the noise.
+    straw_level : float
+        The straw's grey level.
+    scatter_px : float
+        Robust scatter of the clean centroids about a smooth path (px).
+    notes : tuple of str
+        Things worth knowing (e.g. the background's frames).
+    """
+
+    data: pd.DataFrame
+    view: str | None
+    release_frame: int | None
+    release_note: str
+    release_t_s: float | None
+    fps: float | None
+    frame_shape: tuple
+    noise_sigma: float
+    k_sigma: float
+    straw_level: float
+    scatter_px: float
+    notes: tuple = ()
+
+    @property
+    def usable(self):
+        """Boolean array: rows a fit may use (flags 0 and a finite position)."""
+        d = self.data
+        return ((d["flags"].to_numpy() == 0) & np.isfinite(d["u_px"].to_numpy())
+                & np.isfinite(d["v_px"].to_numpy()))
+
+    def flag_counts(self):
+        """Frames carrying each flag, by name."""
+        f = self.data["flags"].to_numpy()
+        return {name: int(np.count_nonzero(f & bit)) for bit, name in FLAGS.items()}
+
+    def to_dict(self):
+        """A JSON-ready summary (not the rows)."""
+        return {"view": self.view, "frames": int(len(self.data)),
+                "usable": int(np.count_nonzero(self.usable)),
+                "release_frame": self.release_frame, "release_note": self.release_note,
+                "release_t_s": self.release_t_s,
+                "fps": self.fps, "frame_shape": list(self.frame_shape),
+                "noise_sigma": float(self.noise_sigma), "k_sigma": float(self.k_sigma),
+                "straw_level": float(self.straw_level), "scatter_px": float(self.scatter_px),
+                "flags": self.flag_counts(), "notes": list(self.notes)}
+
+
+def _blade_mask(blade_region, shape):
+    if blade_region is None:
+        return None
+    if isinstance(blade_region, np.ndarray) and blade_region.ndim == 2:
+        if blade_region.shape != tuple(shape):
+            raise TrackError(f"blade_region mask is {blade_region.shape}, the frames are "
+                             f"{tuple(shape)}")
+        return blade_region.astype(bool)
+    try:
+        u, v, r = (float(x) for x in blade_region)
+    except (TypeError, ValueError):
+        raise TrackError("blade_region must be a boolean mask of the frame's shape or a "
+                         f"circle (u_px, v_px, radius_px), got {blade_region!r}") from None
+    if not (np.isfinite(u) and np.isfinite(v) and np.isfinite(r) and r > 0):
+        raise TrackError(f"blade_region circle needs finite u, v and radius > 0, got "
+                         f"{blade_region!r}")
+    rows, cols = shape
+    yy, xx = np.ogrid[:rows, :cols]
+    return (xx - u) ** 2 + (yy - v) ** 2 <= r * r
+
+
+def _name(view, source):
+    if view:
+        return f"view {view}"
+    return f"{getattr(source, 'path', 'footage')}"
+
+
+class _Follow:
+    """The running state of the follower (reference size, grey level, errors)."""
+
+    def __init__(self):
+        self.levels = deque(maxlen=9)
+        self.areas = deque(maxlen=9)
+        self.lengths = deque(maxlen=9)
+        self.widths = deque(maxlen=9)
+        self.errors = deque(maxlen=16)
+        self.pred = Predictor()
+        self.intruders = Intruders()
+        self.gap = 0
+
+    @property
+    def level(self):
+        return float(statistics.median(self.levels)) if self.levels else None
+
+    def ref(self, q, default):
+        return float(statistics.median(q)) if q else default
+
+    def add(self, blob):
+        self.areas.append(blob.mask_area)
+        if np.isfinite(blob.length):
+            self.lengths.append(blob.length)
+            self.widths.append(blob.width)
+
+
+def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
+          max_gap=5, blade_region=None, centre_line_px=None, warmup_frames=None,
+          quiet=True):
+    """Track the straw through one view's footage.
+
+    Parameters
+    ----------
+    source : vidtrack.frames.FrameSource
+        An open frame source with a time base (``fps`` known). Read once, in order.
+    background : vidtrack.background.Background, optional
+        A precomputed background (e.g. :func:`vidtrack.background.sample_background`
+        over the whole footage). Default: the median of up to 25 frames spread over the
+        first ``warmup_frames`` frames, which the pass holds and then tracks.
+    view : str, optional
+        The view's name, used in messages and the result.
+    k_sigma : float, optional
+        Segmentation threshold in multiples of the measured noise (default 5).
+    min_area_px : int, optional
+        Smallest blob (pixels above threshold) that may be the straw.
+    max_gap : int, optional
+        Longest run of frames without a measurement bridged by prediction; a longer
+        one makes the straw lost (search the whole frame again).
+    blade_region : numpy.ndarray or (float, float, float), optional
+        Where the blade sweeps: a boolean mask of the frame's shape, or a circle
+        ``(u_px, v_px, radius_px)``. Frames where the straw overlaps it are flagged
+        BLADE, and a blob wholly inside it is never taken for the straw.
+    centre_line_px : ((float, float), (float, float)), optional
+        Two pixel points on the stream's centre line: among several straws the one
+        nearest it is followed.
+    warmup_frames : int, optional
+        Frames held for the background (default: as many as fit in 96 MB, 16 to 300).
+    quiet : bool, optional
+        No progress bar.
+
+    Returns
+    -------
+    Track
+
+    Raises
+    ------
+    TrackError
+        Nothing moves in the footage, or nothing moving behaves like the straw (the
+        message names the view); a background of the wrong size; bad options.
+    vidtrack.errors.SourceError
+        The source has no time base, or a frame cannot be decoded.
+
+    Notes
+    -----
+    One pass over the frames; memory is the background, the warm-up buffer and a few
+    numbers per frame, whatever the footage's length.
+    """
+    name = _name(view, source)
+    n = len(source)
+    shape = tuple(source.shape)
+    if n < 3:
+        raise TrackError(f"{name}: tracking needs at least 3 frames, the footage has {n}")
+    if not (np.isfinite(k_sigma) and k_sigma > 0):
+        raise TrackError(f"k_sigma must be > 0, got {k_sigma!r}")
+    if int(max_gap) < 0:
+        raise TrackError(f"max_gap must be >= 0, got {max_gap!r}")
+    times = np.asarray(source.times_s, dtype=np.float64)
+    fnums = np.asarray(source.frame_numbers, dtype=np.int64)
+    steps = np.diff(times)
+    dt = float(np.median(steps)) if steps.size else 1.0
+    if not dt > 0:
+        raise TrackError(f"{name}: the frame times do not increase")
+    tau = (times - times[0]) / dt
+    blade = _blade_mask(blade_region, shape)
+    notes = []
+
+    frames = iter(source)
+    buffer = deque()
+    if background is None:
+        frame_bytes = int(np.prod(shape)) * np.dtype(source.dtype).itemsize
+        warm = warmup_frames or int(np.clip(_WARMUP_BYTES // max(frame_bytes, 1), 16, 300))
+        warm = int(min(max(warm, 3), n))
+        for _ in range(warm):
+            buffer.append(next(frames))
+        sidx = sample_indices(warm, 25)
+        pidx = sample_indices(warm - 1, 12)
+        background = estimate_background([buffer[i] for i in sidx],
+                                         pairs=[(buffer[i], buffer[i + 1]) for i in pidx],
+                                         frames=sidx)
+        notes.append(f"background: median of {len(sidx)} frames spread over frames "
+                     f"0..{warm - 1}")
+    elif not isinstance(background, Background):
+        raise TrackError(f"background must be a vidtrack.background.Background, got "
+                         f"{type(background).__name__}")
+    if tuple(background.shape) != shape:
+        raise TrackError(f"{name}: the background is {background.shape}, the frames are {shape}")
+
+    seg = Segmenter(background, k_sigma=k_sigma)
+    rows, cols = shape
+    u = np.full(n, np.nan)
+    v = np.full(n, np.nan)
+    area = np.full(n, np.nan)
+    angle = np.full(n, np.nan)
+    length = np.full(n, np.nan)
+    flags = np.full(n, LOST, dtype=np.int64)
+    clean = np.zeros(n, bool)
+    first_border = None
+
+    acq = Acquirer(confirm=3, max_step=0.25 * max(rows, cols), min_motion=0.3,
+                   centre_line=centre_line_px)
+    fol = None
+    lost_state = None        # (Predictor, tau) of the straw when it was lost
+    last_level = [float("nan")]
+    moving_frames = 0
+    min_area = max(1, int(min_area_px))
+
+    def store(i, blob, extra=0):
+        nonlocal first_border
+        u[i], v[i], area[i] = blob.u, blob.v, blob.area
+        angle[i], length[i] = blob.angle, blob.length
+        fl = extra
+        if blob.touches_border:
+            fl |= BORDER
+        if blade is not None:
+            x0, y0, x1, y1 = blob.bbox
+            if blade[y0:y1, x0:x1].any():
+                fl |= BLADE
+        flags[i] = fl
+        clean[i] = fl == 0
+        if first_border is None:
+            first_border = bool(fl & (BORDER | MERGED | BLADE))
+        return fl
+
+    def search_blobs(i, frame, gain, level):
+        boxes = seg.coarse(frame, gain)
+        if not boxes:
+            return []
+        pad = 2 * seg.decimate + 2
+        rois = []
+        for x0, y0, x1, y1, _ in boxes[:8]:
+            r = [max(0, x0 - pad), max(0, y0 - pad), min(cols, x1 + pad), min(rows, y1 + pad)]
+            for q in rois:
+                if r[0] < q[2] and q[0] < r[2] and r[1] < q[3] and q[1] < r[3]:
+                    q[:] = [min(r[0], q[0]), min(r[1], q[1]), max(r[2], q[2]), max(r[3], q[3])]
+                    break
+            else:
+                rois.append(r)
+        out = []
+        for r in rois:
+            for pol in (1, -1):
+                reg = seg.segment(frame, tuple(r), gain=gain, polarity=pol)
+                for b in reg.components(min_area, shape):
+                    if blade is not None:
+                        x0, y0, x1, y1 = b.bbox
+                        if blade[y0:y1, x0:x1].all():
+                            continue
+                    lv = read_level(reg, b)
+                    work = reg.work([b.label], lv, margin=work_margin(None, None, b.bbox))
+                    b.merged = other_behind(work, lv, width=None, min_area=min_area)
+                    measure(work, b, lv)
+                    if not b.area > 0:
+                        continue
+                    b.level = lv
+                    b.polarity = pol
+                    b.index = i
+                    out.append(b)
+        return out
+
+    def consistent_with_lost(tr):
+        if lost_state is None:
+            return True
+        pred, t_lost = lost_state
+        t_new = tr.points[-1][0]
+        st = pred.state(t_new)
+        if st is None:
+            return True
+        p, vel, acc = st
+        gap = t_new - t_lost
+        speed = float(np.hypot(*vel))
+        gate = 10.0 + 0.15 * speed * gap + 0.5 * float(np.hypot(*acc)) * gap * gap
+        pts = np.array(tr.points[-2:])
+        tv = (pts[1, 1:] - pts[0, 1:]) / max(pts[1, 0] - pts[0, 0], 1e-9)
+        vgate = 2.0 + 0.3 * speed + float(np.hypot(*acc)) * gap
+        return (np.hypot(*(pts[1, 1:] - p)) <= gate
+                and np.hypot(*(tv - (vel + acc * gap))) <= vgate)
+
+    def start_following(tr):
+        f = _Follow()
+        for (t, bu, bv), b in zip(tr.points, tr.blobs):
+            fl = store(b.index, b, MERGED if b.merged else 0)
+            if np.isfinite(b.level):
+                f.levels.append(b.level)
+            if not fl & BORDER:
+                f.pred.add(t, bu, bv)
+                f.add(b)
+        return f
+
+    def follow(i, frame, f):
+        st = f.pred.state(tau[i])
+        if st is None:
+            return False
+        p, vel, acc = st
+        speed = float(np.hypot(*vel))
+        ref_len = f.ref(f.lengths, 10.0)
+        ref_w = f.ref(f.widths, 3.0)
+        err = float(np.sqrt(np.mean(np.square(f.errors)))) if f.errors else 1.0
+        extra = 0.5 * f.gap * (speed + 1.0)
+        # wide enough to see another straw coming before it touches this one
+        hs = int(math.ceil(1.0 * ref_len + 2.0 * ref_w + 6.0 + 0.5 * speed + 3.0 * err + extra))
+        gate = max(5.0, 0.5 * ref_len, 4.0 * err + 3.0) + extra
+        level = f.level
+        gain = seg.gain(frame)
+        chosen = None
+        for attempt in range(2):
+            cu, cv = int(round(p[0])), int(round(p[1]))
+            roi = (max(0, cu - hs), max(0, cv - hs), min(cols, cu + hs + 1),
+                   min(rows, cv + hs + 1))
+            if roi[2] - roi[0] < 2 or roi[3] - roi[1] < 2:
+                return False
+            reg = seg.segment(frame, roi, gain=gain, level=level)
+            blobs = reg.components(min_area, shape)
+            best, best_d, best_score = None, np.inf, np.inf
+            for b in blobs:
+                dd = float(np.hypot(b.u - p[0], b.v - p[1]))
+                score = dd
+                if f.intruders.items and f.intruders.closer_to_intruder(tau[i], b, p):
+                    score += gate  # the other straw's, as far as its motion says
+                if score < best_score:
+                    best, best_d, best_score = b, dd, score
+            if best is None or best_d > gate + 0.5 * math.sqrt(best.mask_area):
+                return False
+            chosen = best
+            if best.touches_roi and attempt == 0:
+                hs *= 2
+                continue
+            break
+        b = chosen
+        group = [b.label]
+        mask_area = b.mask_area
+        if len(f.lengths) >= 3:
+            # parts of the straw split where it cannot be seen against the background:
+            # small pieces within its reach (a whole second straw is not a piece)
+            reach = 0.5 * ref_len + ref_w + 2.0
+            ref_a = f.ref(f.areas, 0.0)
+            x0r, y0r = reg.roi[0], reg.roi[1]
+            for k in range(1, reg.n):
+                if k == b.label:
+                    continue
+                cu_k, cv_k = reg.centroids[k]
+                a_k = int(reg.stats[k][4])
+                if (np.hypot(x0r + cu_k - p[0], y0r + cv_k - p[1]) <= reach
+                        and a_k < 0.5 * ref_a and mask_area + a_k <= 1.3 * ref_a):
+                    group.append(k)
+                    mask_area += a_k
+        lv = level if level is not None else read_level(reg, b)
+        fl = 0
+        known = len(f.lengths) >= 3
+        work = reg.work(group, lv, margin=work_margin(ref_w, ref_len if known else None,
+                                                      b.bbox))
+        if other_behind(work, lv, width=ref_w, min_area=min_area):
+            fl |= MERGED
+        measure(work, b, lv, width=ref_w if known else None, length=ref_len if known else None)
+        if not b.area > 0:
+            return False
+        b.mask_area = mask_area
+        if len(group) > 1:
+            xs = [reg.stats[k][0] for k in group]
+            ys = [reg.stats[k][1] for k in group]
+            xe = [reg.stats[k][0] + reg.stats[k][2] for k in group]
+            ye = [reg.stats[k][1] + reg.stats[k][3] for k in group]
+            b.bbox = (reg.roi[0] + min(xs), reg.roi[1] + min(ys), reg.roi[0] + max(xe),
+                      reg.roi[1] + max(ye))
+            b.touches_border = (b.bbox[0] <= 0 or b.bbox[1] <= 0 or b.bbox[2] >= cols
+                                or b.bbox[3] >= rows)
+        # merged with a blob of the same polarity (another straw): the centroid is not
+        # the straw's; one of the other polarity was taken as background above
+        same = False
+        ref_area = f.ref(f.areas, None)
+        if ref_area is not None and len(f.areas) >= 3 and (
+                b.mask_area > 1.6 * ref_area or b.mask_area > 1.4 * f.areas[-1]
+                or b.length - f.lengths[-1] > 0.3 * max(f.lengths)):
+            same = True
+        x0, y0, x1, y1 = b.bbox
+        others = [o for o in blobs if o.label not in group]
+        for o in others:
+            ox0, oy0, ox1, oy1 = o.bbox
+            if ox0 <= x1 + 1 and x0 <= ox1 + 1 and oy0 <= y1 + 1 and y0 <= oy1 + 1:
+                same = True
+                break
+        for o in others:
+            if not np.isfinite(o.length):
+                o.length = float(max(o.bbox[2] - o.bbox[0], o.bbox[3] - o.bbox[1]))
+        f.intruders.update(tau[i], others, min_area=0.4 * (ref_area or 0.0))
+        if f.intruders.near(tau[i], p[0], p[1], ref_len):
+            same = True
+        fl = store(i, b, fl | (MERGED if same else 0))
+        if not same and not (fl & BORDER):
+            f.errors.append(float(np.hypot(b.u - p[0], b.v - p[1])))
+            f.pred.add(tau[i], b.u, b.v)
+            f.add(b)
+            if i % 4 == 0 or len(f.levels) < 3:
+                lv = read_level(reg, b)   # the level drifts slowly: every 4th frame
+                if np.isfinite(lv):
+                    f.levels.append(lv)
+        return True
+
+    def stream():
+        while buffer:
+            yield buffer.popleft()
+        yield from frames
+
+    for i, frame in enumerate(progress(stream(), total=n, desc=f"track {view or ''}".strip(),
+                                       quiet=quiet, unit="frame")):
+        if fol is not None:
+            if follow(i, frame, fol):
+                fol.gap = 0
+                continue
+            fol.gap += 1
+            if fol.gap <= max_gap:
+                continue
+            lost_state = (fol.pred, tau[i])
+            if fol.level is not None:
+                last_level[0] = fol.level
+            acq.reset()
+            fol = None
+        level = None
+        gain = seg.gain(frame)
+        blobs = search_blobs(i, frame, gain, level)
+        if blobs:
+            moving_frames += 1
+        tr = acq.update(tau[i], blobs, accept=consistent_with_lost)
+        if tr is not None:
+            fol = start_following(tr)
+            acq.reset()
+
+    if not clean.any() and not np.isfinite(u).any():
+        if moving_frames == 0:
+            raise TrackError(
+                f"{name}: nothing moves in frames {fnums[0]}..{fnums[-1]}: no pixel differs "
+                f"from the background by more than {k_sigma:g} x the noise "
+                f"({background.noise_sigma:.2g} grey levels)")
+        raise TrackError(
+            f"{name}: the straw never appears in frames {fnums[0]}..{fnums[-1]}: moving "
+            f"blobs were seen in {moving_frames} frames, but none moved steadily over 3 "
+            "consecutive frames")
+
+    pos = np.column_stack([u, v])
+    scatter = _refine.flag_outliers(tau, pos, flags, clean_mask=flags == 0,
+                                    outlier_flag=OUTLIER)
+    usable = np.isfinite(u) & ((flags & (BORDER | LOST | PREDICTED | OUTLIER)) == 0)
+    first_clean = np.flatnonzero(flags == 0)
+    if first_clean.size:
+        # merged frames count only while the straw rides the blade, before it is clear
+        usable &= ~((np.arange(n) > first_clean[0]) & ((flags & MERGED) > 0))
+    latest = float(tau[first_clean[0]]) + 2.0 if first_clean.size else None
+    rel, rel_tau, rel_note = _refine.find_release(tau, pos, usable, latest=latest,
+                                                  first_in_open=not first_border)
+    if rel is not None:
+        before = (np.arange(n) < rel) & np.isfinite(u)
+        flags[before] |= PRE_RELEASE
+    good = (flags == 0) & np.isfinite(u)
+    _refine.bridge_gaps(tau, pos, flags, good, max_gap=int(max_gap), lost_flag=LOST,
+                        predicted_flag=PREDICTED)
+    u, v = pos[:, 0], pos[:, 1]
+    if rel is not None:
+        flags[(np.arange(n) < rel) & ((flags & PREDICTED) > 0)] |= PRE_RELEASE
+
+    if fol is not None and fol.level is not None:
+        last_level[0] = fol.level
+    data = pd.DataFrame({
+        "frame": fnums, "t_s": times, "u_px": u, "v_px": v, "area_px": area,
+        "angle_rad": angle, "length_px": length, "flags": flags.astype(np.int32)})
+    if rel is None:
+        rel_t = None
+    elif rel_tau is None:
+        rel_t = float(times[rel])
+    else:
+        rel_t = float(np.interp(rel_tau, tau, times, left=np.nan, right=np.nan))
+        if not np.isfinite(rel_t):
+            rel_t = float(times[0] + rel_tau * dt)
+    return Track(data=data, view=view, release_frame=None if rel is None else int(fnums[rel]),
+                 release_note=rel_note, release_t_s=rel_t, fps=source.fps, frame_shape=shape,
+                 noise_sigma=float(background.noise_sigma), k_sigma=float(k_sigma),
+                 straw_level=float(last_level[0]),
+                 scatter_px=float(scatter) if np.isfinite(scatter) else float("nan"),
+                 notes=tuple(notes))

@@ -1,0 +1,269 @@
+"""``tracks.h5``: the per-view tracks and the world track of a run (SPEC.md "Outputs").
+
+Layout (HDF5, written with h5py, whole or not at all)::
+
+    /                 attrs: vidtrack_version, scene_hash, calibration (JSON text),
+                             schema (1), flags (JSON: bit value -> name)
+    /front, /top      datasets (one value per frame): frame (int64), t_s, u_px, v_px,
+                      area_px, angle_rad, length_px (float64), flags (int32)
+                      attrs: release_frame (-1: none), release_t_s (NaN: none),
+                             release_note, fps, frame_shape, noise_sigma, k_sigma,
+                             straw_level, scatter_px, notes (JSON)
+    /world            datasets: t_s, x_m, y_m, z_m (float64, NaN where not measured)
+                      attrs: reference, t0_s (JSON), sync (JSON), x_rms_m, x_rms_px
+                             (NaN: not checked), x_points, warnings (JSON)
+
+``t_s`` of a view is its source clock (s from the file's first frame); ``t_s`` of
+``/world`` is the time since the release (t = 0), and ``/world`` attribute ``t0_s``
+gives, per view, the source-clock time that is t = 0.
+
+>>> write_tracks("run42/vidtrack/tracks.h5", {"front": tr}, world,    # doctest: +SKIP
+...              scene_hash=scene.hash, calibration={"front": m.to_dict()})
+>>> f = read_tracks("run42/vidtrack/tracks.h5")                         # doctest: +SKIP
+>>> f.tracks["front"].data, f.world.data                              # doctest: +SKIP
+"""
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from vidtrack._atomic import atomic_path
+from vidtrack.errors import TrackError
+
+__all__ = ["TracksFile", "write_tracks", "read_tracks", "SCHEMA"]
+
+#: Layout version written to the root attribute ``schema``.
+SCHEMA = 1
+_VIEWS = ("front", "top")
+_FLOAT_COLS = ("t_s", "u_px", "v_px", "area_px", "angle_rad", "length_px")
+
+
+@dataclass(frozen=True, eq=False)
+class TracksFile:
+    """What :func:`read_tracks` found.
+
+    Attributes
+    ----------
+    tracks : dict of str to vidtrack.tracker.Track
+        The views in the file.
+    world : vidtrack.stereo.WorldTrack or None
+        The world track, when the file has one.
+    vidtrack_version, scene_hash : str
+        Root attributes.
+    calibration : object
+        The ``calibration`` attribute decoded from JSON.
+    path : pathlib.Path
+    """
+
+    tracks: dict
+    world: object
+    vidtrack_version: str
+    scene_hash: str
+    calibration: object
+    path: Path
+
+    def to_dict(self):
+        """A JSON-ready summary."""
+        return {"path": str(self.path), "vidtrack_version": self.vidtrack_version,
+                "scene_hash": self.scene_hash, "calibration": self.calibration,
+                "views": {v: t.to_dict() for v, t in self.tracks.items()},
+                "world": None if self.world is None else self.world.to_dict()}
+
+
+def _json(obj):
+    return json.dumps(obj, sort_keys=True, allow_nan=True, default=_plain)
+
+
+def _plain(obj):
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, (np.ndarray, tuple)):
+        return list(obj)
+    if isinstance(obj, Path):
+        return str(obj)
+    if hasattr(obj, "to_dict"):
+        return obj.to_dict()
+    raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
+
+
+def _num(value):
+    return float("nan") if value is None else float(value)
+
+
+def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
+    """Write ``tracks.h5`` atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to write (its folder is created); an existing file is replaced only
+        when the new one is complete.
+    tracks : dict of str to vidtrack.tracker.Track
+        ``front`` and/or ``top``.
+    world : vidtrack.stereo.WorldTrack, optional
+        The merged world track.
+    scene_hash : str, keyword-only
+        ``Scene.hash`` of the scene the tracks came from.
+    calibration : object, keyword-only
+        What calibration was used (JSON-able: e.g. each view's mapping ``to_dict()``),
+        stored as JSON text.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    TrackError
+        An unknown view name, or a track without the columns of
+        :data:`vidtrack.tracker.TRACK_COLUMNS`.
+    """
+    import h5py
+
+    from vidtrack import __version__
+    from vidtrack.tracker import FLAGS, TRACK_COLUMNS
+
+    path = Path(path)
+    for v, tr in tracks.items():
+        if v not in _VIEWS:
+            raise TrackError(f"tracks.h5: unknown view {v!r}; expected front or top")
+        missing = [c for c in TRACK_COLUMNS if c not in tr.data]
+        if missing:
+            raise TrackError(f"tracks.h5: the {v} track lacks columns {missing}")
+    with atomic_path(path) as tmp:
+        with h5py.File(tmp, "w") as h:
+            h.attrs["schema"] = SCHEMA
+            h.attrs["vidtrack_version"] = __version__
+            h.attrs["scene_hash"] = str(scene_hash or "")
+            h.attrs["calibration"] = _json(calibration)
+            h.attrs["flags"] = _json({str(k): v for k, v in FLAGS.items()})
+            for v in _VIEWS:
+                if v not in tracks:
+                    continue
+                tr = tracks[v]
+                g = h.create_group(v)
+                d = tr.data
+                g.create_dataset("frame", data=d["frame"].to_numpy(dtype=np.int64))
+                for c in _FLOAT_COLS:
+                    g.create_dataset(c, data=d[c].to_numpy(dtype=np.float64))
+                g.create_dataset("flags", data=d["flags"].to_numpy(dtype=np.int32))
+                g.attrs["release_frame"] = -1 if tr.release_frame is None else int(
+                    tr.release_frame)
+                g.attrs["release_t_s"] = _num(tr.release_t_s)
+                g.attrs["release_note"] = str(tr.release_note)
+                g.attrs["fps"] = _num(tr.fps)
+                g.attrs["frame_shape"] = np.asarray(tr.frame_shape, dtype=np.int64)
+                g.attrs["noise_sigma"] = float(tr.noise_sigma)
+                g.attrs["k_sigma"] = float(tr.k_sigma)
+                g.attrs["straw_level"] = float(tr.straw_level)
+                g.attrs["scatter_px"] = float(tr.scatter_px)
+                g.attrs["notes"] = _json(list(tr.notes))
+            if world is not None:
+                g = h.create_group("world")
+                for c in ("t_s", "x_m", "y_m", "z_m"):
+                    g.create_dataset(c, data=world.data[c].to_numpy(dtype=np.float64))
+                g.attrs["reference"] = str(world.reference)
+                g.attrs["t0_s"] = _json(world.t0_s)
+                g.attrs["sync"] = _json(world.sync)
+                g.attrs["x_rms_m"] = _num(world.x_rms_m)
+                g.attrs["x_rms_px"] = _num(world.x_rms_px)
+                g.attrs["x_points"] = int(world.x_points)
+                g.attrs["warnings"] = _json(list(world.warnings))
+    return path
+
+
+def _attr(obj, key, path, where):
+    if key not in obj.attrs:
+        raise TrackError(f"{path}: {where} has no attribute {key!r}; not a vidtrack tracks.h5")
+    value = obj.attrs[key]
+    if isinstance(value, bytes):
+        value = value.decode("utf-8")
+    return value
+
+
+def _none_if_nan(value):
+    value = float(value)
+    return None if not np.isfinite(value) else value
+
+
+def read_tracks(path):
+    """Read a ``tracks.h5`` written by :func:`write_tracks`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    TracksFile
+
+    Raises
+    ------
+    TrackError
+        A missing file, a file that is not HDF5, or one without the datasets and
+        attributes of this layout (the message names what is missing).
+    """
+    import h5py
+
+    from vidtrack.stereo import WorldTrack
+    from vidtrack.tracker import TRACK_COLUMNS, Track
+
+    path = Path(path)
+    if not path.is_file():
+        raise TrackError(f"{path}: no such file")
+    try:
+        h = h5py.File(path, "r")
+    except OSError as exc:
+        raise TrackError(f"{path}: cannot be read as HDF5 ({exc})") from None
+    with h:
+        version = str(_attr(h, "vidtrack_version", path, "the root"))
+        scene_hash = str(_attr(h, "scene_hash", path, "the root"))
+        calibration = json.loads(_attr(h, "calibration", path, "the root"))
+        tracks = {}
+        for v in _VIEWS:
+            if v not in h:
+                continue
+            g = h[v]
+            cols = {}
+            for c in TRACK_COLUMNS:
+                if c not in g:
+                    raise TrackError(f"{path}: /{v} has no dataset {c!r}")
+                cols[c] = g[c][()]
+            n = {c: len(a) for c, a in cols.items()}
+            if len(set(n.values())) != 1:
+                raise TrackError(f"{path}: /{v} datasets differ in length: {n}")
+            data = pd.DataFrame({c: cols[c] for c in TRACK_COLUMNS})
+            rel = int(_attr(g, "release_frame", path, f"/{v}"))
+            tracks[v] = Track(
+                data=data, view=v, release_frame=None if rel < 0 else rel,
+                release_note=str(_attr(g, "release_note", path, f"/{v}")),
+                release_t_s=_none_if_nan(_attr(g, "release_t_s", path, f"/{v}")),
+                fps=_none_if_nan(_attr(g, "fps", path, f"/{v}")),
+                frame_shape=tuple(int(x) for x in _attr(g, "frame_shape", path, f"/{v}")),
+                noise_sigma=float(_attr(g, "noise_sigma", path, f"/{v}")),
+                k_sigma=float(_attr(g, "k_sigma", path, f"/{v}")),
+                straw_level=float(_attr(g, "straw_level", path, f"/{v}")),
+                scatter_px=float(_attr(g, "scatter_px", path, f"/{v}")),
+                notes=tuple(json.loads(_attr(g, "notes", path, f"/{v}"))))
+        world = None
+        if "world" in h:
+            g = h["world"]
+            cols = {}
+            for c in ("t_s", "x_m", "y_m", "z_m"):
+                if c not in g:
+                    raise TrackError(f"{path}: /world has no dataset {c!r}")
+                cols[c] = g[c][()]
+            world = WorldTrack(
+                data=pd.DataFrame(cols),
+                t0_s=json.loads(_attr(g, "t0_s", path, "/world")),
+                sync=json.loads(_attr(g, "sync", path, "/world")),
+                reference=str(_attr(g, "reference", path, "/world")),
+                x_rms_m=_none_if_nan(_attr(g, "x_rms_m", path, "/world")),
+                x_rms_px=_none_if_nan(_attr(g, "x_rms_px", path, "/world")),
+                x_points=int(_attr(g, "x_points", path, "/world")),
+                warnings=tuple(json.loads(_attr(g, "warnings", path, "/world"))))
+    return TracksFile(tracks=tracks, world=world, vidtrack_version=version,
+                      scene_hash=scene_hash, calibration=calibration, path=path)
