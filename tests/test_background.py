@@ -1,0 +1,115 @@
+"""Background and noise against known truth: the static scene a moving rod was drawn
+over, the Gaussian noise that was added, numpy's median."""
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from rod_render import compose, rod_coverage, texture
+
+from vidtrack.background import (estimate_background, measure_noise, median_images,
+                                 sample_background, sample_indices)
+from vidtrack.errors import TrackError
+from vidtrack.frames import open_source
+
+
+@settings(max_examples=40, deadline=None)
+@given(k=st.integers(1, 19), rows=st.integers(1, 70), cols=st.integers(1, 9),
+       bits=st.sampled_from([8, 16]), seed=st.integers(0, 2 ** 31 - 1))
+def test_median_images_is_numpys_median(k, rows, cols, bits, seed):
+    rng = np.random.default_rng(seed)
+    dtype = np.uint8 if bits == 8 else np.uint16
+    top = np.iinfo(dtype).max
+    imgs = [rng.integers(0, top, (rows, cols), endpoint=True).astype(dtype) for _ in range(k)]
+    got = median_images(imgs, rows_per_chunk=16)
+    want = np.sort(np.stack(imgs), axis=0)[k // 2]   # upper median for even k
+    assert got.dtype == dtype
+    assert np.array_equal(got, want)
+
+
+def _moving_rod_frames(rng, n=41, noise=2.0):
+    shape = (90, 150)
+    scene = texture(shape, rng=rng, contrast=40.0)
+    frames = []
+    for i in range(n):
+        cov = rod_coverage(shape, 10 + 3.2 * i, 45 + 10 * np.sin(i / 7), 20.0, 3.0, 0.1 * i)
+        frames.append(compose(scene, cov, 235.0, rng=rng, noise=noise))
+    return scene, frames
+
+
+def test_background_recovers_the_static_scene_and_the_noise():
+    rng = np.random.default_rng(11)
+    scene, frames = _moving_rod_frames(rng)
+    idx = sample_indices(len(frames), 25)
+    bg = estimate_background([frames[i] for i in idx],
+                             pairs=[(frames[i], frames[i + 1]) for i in range(0, 40, 4)],
+                             frames=idx)
+    assert bg.shape == scene.shape and bg.n_samples == len(idx) == 25
+    err = bg.image - scene
+    assert np.sqrt(np.mean(err ** 2)) < 1.0        # the median of noisy samples
+    assert np.max(np.abs(err)) < 6.0               # the rod is nowhere left in it
+    assert bg.noise_sigma == pytest.approx(2.0, rel=0.12)
+    assert np.median(bg.noise_map) == pytest.approx(2.0, rel=0.25)
+    thr = bg.threshold(k=5.0)
+    assert np.all(thr >= 5.0 * bg.noise_sigma)
+
+
+def test_noise_map_ignores_a_blade_that_passes_often():
+    # a dark bar covers the middle columns in 40 % of the frames (a rotor): the spread of
+    # the samples there is huge, the frame-to-frame noise is not
+    rng = np.random.default_rng(12)
+    scene = texture((60, 80), rng=rng, contrast=20.0)
+    frames = []
+    for i in range(40):
+        img = scene.copy()
+        if (i // 4) % 5 < 2:
+            img[:, 30:50] = 40.0
+        frames.append(compose(img, np.zeros(img.shape), 0.0, rng=rng, noise=1.5))
+    pairs = [(frames[i], frames[i + 1]) for i in range(0, 39, 3)]
+    bg = estimate_background(frames[::2], pairs=pairs)
+    inside = bg.noise_map[:, 30:50]
+    assert np.median(inside) < 3.0 * 1.5
+    assert np.max(bg.noise_map) <= 5.0 * bg.noise_sigma + 1e-6
+
+
+def test_measure_noise_gaussian_and_quantised():
+    rng = np.random.default_rng(13)
+    base = np.full((200, 200), 100.0)
+    frames = [np.clip(np.rint(base + rng.normal(0, 3.0, base.shape)), 0, 255).astype(np.uint8)
+              for _ in range(4)]
+    assert measure_noise(frames) == pytest.approx(3.0, rel=0.08)
+    still = [np.full((50, 50), 7, np.uint8)] * 3
+    assert measure_noise(still) == 0.5          # quantisation floor
+    with pytest.raises(TrackError):
+        measure_noise(frames[:1])
+
+
+def test_bad_input():
+    a = np.zeros((10, 10), np.uint8)
+    with pytest.raises(TrackError, match="at least 3"):
+        estimate_background([a, a], pairs=[(a, a)])
+    with pytest.raises(TrackError, match="pair"):
+        estimate_background([a, a, a], pairs=[])
+    with pytest.raises(TrackError, match="one size"):
+        estimate_background([a, a, np.zeros((10, 11), np.uint8)], pairs=[(a, a)])
+    with pytest.raises(TrackError, match="unsigned"):
+        f = np.zeros((10, 10), np.float32)
+        estimate_background([f, f, f], pairs=[(f, f)])
+
+
+def test_sample_background_from_a_video_file(tmp_path):
+    rng = np.random.default_rng(14)
+    scene, frames = _moving_rod_frames(rng, n=41, noise=1.0)
+    path = tmp_path / "rod.avi"
+    vw = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), 30.0,
+                         (scene.shape[1], scene.shape[0]), False)
+    for f in frames:
+        vw.write(f)
+    vw.release()
+    with open_source(path, fps=1000) as src:
+        bg = sample_background(src, samples=15)
+    assert bg.n_samples == 15 and bg.frames[0] == 0 and bg.frames[-1] == 40
+    assert np.sqrt(np.mean((bg.image - scene) ** 2)) < 1.0
+    assert bg.noise_sigma == pytest.approx(1.0, rel=0.25)
+    assert bg.to_dict()["n_samples"] == 15

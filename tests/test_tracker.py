@@ -1,0 +1,216 @@
+"""The tracker against ground truth it never sees: truth.json of ``vidtrack synth`` runs
+(noise, motion blur and MJPG compression on), and rods rendered here with exact
+coverage over a texture (``rod_render``)."""
+
+import cv2
+import numpy as np
+import pytest
+from rod_render import compose, rod_coverage, texture
+from synth_runs import centroid_errors, synth_run, view_truth
+
+from vidtrack.background import Background
+from vidtrack.errors import TrackError
+from vidtrack.frames import open_source
+from vidtrack.tracker import (BLADE, BORDER, FLAGS, LOST, MERGED, PRE_RELEASE, PREDICTED,
+                              TRACK_COLUMNS, describe_flags, track)
+from vidtrack._segment import Segmenter, measure, read_level, work_margin
+
+
+def _track_view(folder, view, **kw):
+    per_frame, vt = view_truth(folder, view)
+    with open_source(folder / vt["source"], fps=vt["fps"]) as src:
+        tr = track(src, view=view, **kw)
+    return tr, per_frame, vt
+
+
+# --------------------------------------------------------------------- the centroid
+def test_coverage_centroid_is_unbiased_over_texture_where_difference_weighting_is_not():
+    rng = np.random.default_rng(7)
+    shape = (120, 160)
+    bg = texture(shape, rng=rng, contrast=50.0)
+    background = Background(image=bg.astype(np.float32), noise_sigma=2.0,
+                            noise_map=np.zeros(shape, np.float32), n_samples=25)
+    seg = Segmenter(background, k_sigma=5.0)
+    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    ours, weighted = [], []
+    for _ in range(60):
+        u, v = 80 + rng.uniform(-1, 1), 60 + rng.uniform(-1, 1)
+        ang = rng.uniform(-np.pi / 2, np.pi / 2)
+        frame = compose(bg, rod_coverage(shape, u, v, 30.0, 4.0, ang), 230.0, rng=rng,
+                        noise=2.0)
+        reg = seg.segment(frame, (0, 0, shape[1], shape[0]))
+        blob = max(reg.components(4, shape), key=lambda b: b.mask_area)
+        level = read_level(reg, blob)
+        work = reg.work([blob.label], level, margin=work_margin(None, None, blob.bbox))
+        measure(work, blob, level)
+        ours.append((blob.u - u, blob.v - v, blob.length - 30.0, blob.angle - ang))
+        diff = np.abs(frame.astype(float) - bg)
+        w = diff * (diff > 10.0)
+        weighted.append(((w * xx).sum() / w.sum() - u, (w * yy).sum() / w.sum() - v))
+    ours, weighted = np.array(ours), np.array(weighted)
+    rms_ours = np.sqrt(np.mean(ours[:, 0] ** 2 + ours[:, 1] ** 2))
+    rms_weighted = np.sqrt(np.mean(weighted[:, 0] ** 2 + weighted[:, 1] ** 2))
+    assert rms_ours < 0.05
+    assert rms_weighted > 0.3          # the method matters: 10 x worse
+    assert np.max(np.abs(ours[:, 2])) < 1.0                          # length, px
+    ang_err = (ours[:, 3] + np.pi / 2) % np.pi - np.pi / 2
+    assert np.max(np.abs(ang_err)) < 0.02                             # orientation, rad
+
+
+# --------------------------------------------------------------------- synthetic runs
+@pytest.fixture(scope="module")
+def default_run():
+    return synth_run("default")
+
+
+@pytest.mark.parametrize("view", ["front", "top"])
+def test_centroid_rms_on_unflagged_frames(default_run, view):
+    tr, per_frame, _ = _track_view(default_run, view)
+    assert list(tr.data.columns) == list(TRACK_COLUMNS)
+    assert len(tr.data) == len(per_frame)
+    err = centroid_errors(tr, per_frame)
+    ok = tr.usable
+    assert ok.sum() >= 0.6 * len(per_frame)
+    assert np.sqrt(np.mean(err[ok] ** 2)) <= 0.25
+    assert np.all(err[ok] < 1.0)
+    # the time base is the capture rate, not the container's 30 fps
+    assert np.allclose(np.diff(tr.data["t_s"]), 1 / 1200.0)
+
+
+def test_release_frame_detected_and_ride_on_the_blade_flagged(default_run):
+    tr, per_frame, vt = _track_view(default_run, "front")
+    true_release = vt["release_frame"]
+    assert tr.release_frame is not None
+    assert abs(tr.release_frame - true_release) <= 1
+    assert abs(tr.release_t_s * vt["fps"] - vt["t0_frame"]) <= 1.0
+    flags = tr.data["flags"].to_numpy()
+    before = tr.data["frame"].to_numpy() < true_release - 1
+    assert np.all(flags[before] != 0)                      # never used for fitting
+    assert np.all(flags[before] & (PRE_RELEASE | MERGED))
+    # while the straw overlaps the rotor's teeth its frames are flagged
+    assert np.all(flags[per_frame["blade_overlap"].to_numpy()] != 0)
+
+
+@pytest.mark.parametrize("view", ["front", "top"])
+def test_second_straw_crossing_never_gives_a_wrong_unflagged_frame(view):
+    run = synth_run("second", second_straw=True, second_cross_s=0.06)
+    tr, per_frame, _ = _track_view(run, view)
+    err = centroid_errors(tr, per_frame)
+    ok = tr.usable
+    assert ok.sum() >= 20
+    assert np.all(err[ok] <= 2.0)
+    assert np.sqrt(np.mean(err[ok] ** 2)) <= 0.25
+    # where the renderer says the two straws share a pixel, the frame is flagged
+    overlap = per_frame["overlap"].to_numpy()
+    assert overlap.any()
+    assert np.all(tr.data["flags"].to_numpy()[overlap] != 0)
+
+
+def test_leaving_the_frame_is_flagged_border_then_lost():
+    run = synth_run("leave", leave_frame=True, views=("front",))
+    tr, per_frame, _ = _track_view(run, "front")
+    flags = tr.data["flags"].to_numpy()
+    in_view = per_frame["in_view"].to_numpy()
+    partly = in_view & ~per_frame["fully_in_view"].to_numpy()
+    assert (~in_view).any() and partly.any()
+    assert np.all(flags[~in_view] & LOST)
+    assert np.all(np.isnan(tr.data["u_px"].to_numpy()[~in_view]))
+    assert np.all(flags[partly] & (BORDER | LOST))
+    err = centroid_errors(tr, per_frame)
+    ok = tr.usable
+    assert np.all(per_frame["fully_in_view"].to_numpy()[ok])
+    assert np.sqrt(np.mean(err[ok] ** 2)) <= 0.25
+
+
+def test_blade_region_flags_overlap(default_run):
+    per_frame, vt = view_truth(default_run, "front")
+    blade = vt["blade"]
+    tr, per_frame, _ = _track_view(default_run, "front",
+                                   blade_region=(*blade["centre_px"], blade["radius_px"]))
+    flags = tr.data["flags"].to_numpy()
+    measured = np.isfinite(tr.data["u_px"].to_numpy())
+    assert np.all(flags[per_frame["blade_overlap"].to_numpy() & measured] & (BLADE | MERGED))
+    assert np.count_nonzero(flags & BLADE) >= 5
+
+
+# --------------------------------------------------------------------- own footage
+def _write_avi(path, frames, fps=30.0):
+    h, w = frames[0].shape
+    vw = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), fps, (w, h), False)
+    assert vw.isOpened()
+    for f in frames:
+        vw.write(f)
+    vw.release()
+    return path
+
+
+def _rod_footage(rng, n=60, *, hide=(), jump=False):
+    shape = (120, 200)
+    bg = texture(shape, rng=rng, contrast=30.0)
+    frames, truth = [], []
+    for i in range(n):
+        if jump:
+            u, v = rng.uniform(30, 170), rng.uniform(30, 90)
+        else:
+            u, v = 30 + 2.2 * i, 90 - 1.5 * i + 0.02 * i * i
+        truth.append((u, v))
+        cov = np.zeros(shape) if i in hide else rod_coverage(shape, u, v, 16.0, 3.0, 0.03 * i)
+        frames.append(compose(bg, cov, 220.0, rng=rng, noise=1.5))
+    return frames, np.array(truth)
+
+
+def test_gap_is_bridged_by_prediction(tmp_path):
+    rng = np.random.default_rng(3)
+    hidden = (30, 31, 32)
+    frames, truth = _rod_footage(rng, hide=hidden)
+    path = _write_avi(tmp_path / "gap.avi", frames)
+    with open_source(path, fps=500) as src:
+        tr = track(src, view="front")
+    flags = tr.data["flags"].to_numpy()
+    for i in hidden:
+        assert flags[i] == PREDICTED
+        assert np.hypot(*(tr.data.loc[i, ["u_px", "v_px"]].to_numpy(float) - truth[i])) < 0.5
+    assert not tr.usable[list(hidden)].any()
+    ok = tr.usable
+    err = np.hypot(*(tr.data[["u_px", "v_px"]].to_numpy() - truth).T)
+    assert np.sqrt(np.mean(err[ok] ** 2)) < 0.1
+
+
+def test_nothing_moves_names_the_view(tmp_path):
+    rng = np.random.default_rng(4)
+    bg = texture((100, 140), rng=rng)
+    frames = [compose(bg, np.zeros(bg.shape), 0.0, rng=rng, noise=1.5) for _ in range(30)]
+    path = _write_avi(tmp_path / "still.avi", frames)
+    with open_source(path, fps=1000) as src, pytest.raises(TrackError) as err:
+        track(src, view="top")
+    assert "view top" in str(err.value) and "nothing moves" in str(err.value)
+
+
+def test_straw_never_appears_names_the_view(tmp_path):
+    rng = np.random.default_rng(5)
+    frames, _ = _rod_footage(rng, n=40, jump=True)   # something flickers about, no flight
+    path = _write_avi(tmp_path / "jumps.avi", frames)
+    with open_source(path, fps=1000) as src, pytest.raises(TrackError) as err:
+        track(src, view="front")
+    assert "view front" in str(err.value) and "never appears" in str(err.value)
+
+
+def test_bad_options_and_background_size(tmp_path):
+    rng = np.random.default_rng(6)
+    frames, _ = _rod_footage(rng, n=20)
+    path = _write_avi(tmp_path / "rod.avi", frames)
+    wrong = Background(image=np.zeros((10, 10), np.float32), noise_sigma=1.0,
+                       noise_map=np.zeros((10, 10), np.float32), n_samples=5)
+    with open_source(path, fps=1000) as src:
+        with pytest.raises(TrackError, match="background"):
+            track(src, view="front", background=wrong)
+        with pytest.raises(TrackError, match="k_sigma"):
+            track(src, k_sigma=0)
+        with pytest.raises(TrackError, match="blade_region"):
+            track(src, blade_region=(1, 2))
+
+
+def test_flag_names():
+    assert describe_flags(0) == ()
+    assert describe_flags(BORDER | LOST) == ("border", "lost")
+    assert sorted(FLAGS) == [1, 2, 4, 8, 16, 32, 64]
