@@ -13,7 +13,7 @@ import importlib
 import sys
 
 #: Subcommands in the order ``vidtrack --help`` lists them (module names in this package).
-COMMANDS = ("anova", "predict", "synth", "frames", "calibrate", "bench")
+COMMANDS = ("fit", "report", "anova", "predict", "synth", "frames", "calibrate", "bench")
 
 
 def _load(name):

@@ -1,0 +1,286 @@
+"""The pipeline behind ``vidtrack fit RUN``: footage -> tracks -> world track -> fit.
+
+Only the stages a scene needs are run: the views it has, and a stage whose inputs and
+settings are unchanged is reused (keyed on a hash kept in ``<run>/vidtrack/stages.json``;
+``force=True`` reruns). Every output is written whole or not at all, and
+``stages.json`` is written last, so an interrupted run is simply run again.
+
+A run with ``throws/`` is fitted per throw (outputs in ``<run>/vidtrack/<throw>/``) and
+the run's ``fit.json`` holds the mean over the throws, as Chen et al. 2018 did.
+"""
+
+import hashlib
+import json
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from vidtrack import __version__
+from vidtrack._atomic import write_text
+from vidtrack.errors import SceneError
+
+OUT_DIR = "vidtrack"
+STAGES_FILE = "stages.json"
+TRACKER_SETTINGS = {"k_sigma": 5.0, "min_area_px": 4, "max_gap": 5}
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """Settings of a fit that change its result (and so its cache key), and how to run."""
+
+    model: str = "quadratic"
+    bootstrap: int = 0
+    seed: int = 0
+    force: bool = False
+    report: bool = True
+    quiet: bool = True
+
+    def key(self):
+        return {"model": self.model, "bootstrap": self.bootstrap,
+                "seed": self.seed if self.bootstrap else None}
+
+
+def _digest(obj):
+    return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def _file_fingerprint(path):
+    """Size, mtime and a hash of the first and last MiB: cheap even for a 10 GB .cine."""
+    path = Path(path)
+    if path.is_dir():
+        return sorted((p.name, p.stat().st_size, p.stat().st_mtime_ns)
+                      for p in path.iterdir() if p.is_file())
+    st = path.stat()
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        h.update(f.read(1 << 20))
+        if st.st_size > 2 << 20:
+            f.seek(-(1 << 20), os.SEEK_END)
+            h.update(f.read())
+    return [st.st_size, st.st_mtime_ns, h.hexdigest()]
+
+
+def _source_of(view, scene, folder):
+    return view.source if Path(folder) == scene.folder else view.source_in(folder)
+
+
+def _check_sources(scene, folder):
+    """Every view's footage exists (before anything is read or written)."""
+    from vidtrack.errors import SourceError
+
+    for name in scene.view_names:
+        path = _source_of(scene.views[name], scene, folder)
+        if not path.exists():
+            raise SourceError(f"{scene.path}: views.{name}.source: {path} does not exist "
+                              "(expected the view's video, image folder or .cine)")
+
+
+def _read_stages(out_dir):
+    try:
+        return json.loads((out_dir / STAGES_FILE).read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def _track_views(scene, folder, options, timings):
+    """Track every view of the scene in ``folder``; returns {view: Track}."""
+    from vidtrack.frames import open_source
+    from vidtrack.tracker import track
+
+    tracks = {}
+    for name in scene.view_names:
+        view = scene.views[name]
+        path = _source_of(view, scene, folder)
+        t0 = time.perf_counter()
+        with open_source(path, fps=view.fps, frames=view.frames) as src:
+            timings["frames"] = timings.get("frames", 0.0) + time.perf_counter() - t0
+            t0 = time.perf_counter()
+            tracks[name] = track(src, view=name, quiet=options.quiet, **TRACKER_SETTINGS)
+        timings["track"] = timings.get("track", 0.0) + time.perf_counter() - t0
+    return tracks
+
+
+def _tracks_stage(scene, folder, out_dir, options, timings, stages):
+    """Tracks and the world track: reused from tracks.h5 when nothing changed."""
+    from vidtrack.stereo import merge_tracks
+    from vidtrack.tracks_io import read_tracks, write_tracks
+
+    key = _digest({"version": __version__, "scene": scene.hash, "tracker": TRACKER_SETTINGS,
+                   "sources": {n: _file_fingerprint(_source_of(v, scene, folder))
+                               for n, v in scene.views.items()}})
+    h5 = out_dir / "tracks.h5"
+    if not options.force and stages.get("tracks") == key and h5.is_file():
+        t0 = time.perf_counter()
+        tf = read_tracks(h5)
+        if tf.world is not None:
+            timings["tracks_reused"] = time.perf_counter() - t0
+            return key, tf.tracks, tf.world, True
+    tracks = _track_views(scene, folder, options, timings)
+    t0 = time.perf_counter()
+    mappings = {n: v.mapping() for n, v in scene.views.items()}
+    world = merge_tracks(tracks, mappings,
+                         sync={n: v.sync_frame for n, v in scene.views.items()})
+    timings["merge"] = time.perf_counter() - t0
+    write_tracks(h5, tracks, world, scene_hash=scene.hash,
+                 calibration={n: v.to_dict() for n, v in scene.views.items()})
+    return key, tracks, world, False
+
+
+def _check_cp(scene, options):
+    cp = scene.cp_s_per_m
+    if cp is None:
+        if options.model == "free":
+            return 0.0
+        raise SceneError(f"{scene.path}: [straw] gives no drag parameter: set cp_s_per_m, "
+                         "or mass_kg, area_m2 and drag_coefficient (the quadratic and linear "
+                         "models need Cp; --model free fits without drag)")
+    return cp
+
+
+def fit_throw_folder(scene, folder, out_dir, options):
+    """Track, merge and fit one throw (the run folder or one of its throws/ folders).
+
+    Returns the fit.json record written to ``out_dir``.
+    """
+    import numpy as np
+
+    from fits.lsq import fit_throw
+    from vidtrack.fit_record import dumps, throw_record
+    from vidtrack.run_report import write_run_report
+
+    out_dir = Path(out_dir)
+    _check_sources(scene, folder)
+    stages = _read_stages(out_dir)
+    timings = {}
+    t_start = time.perf_counter()
+    tracks_key, tracks, world, reused = _tracks_stage(scene, folder, out_dir, options,
+                                                      timings, stages)
+    cp = _check_cp(scene, options)
+    fit_key = _digest({"tracks": tracks_key, "fit": options.key(), "cp": cp})
+    if (not options.force and stages.get("fit") == fit_key
+            and (out_dir / "fit.json").is_file()):
+        return json.loads((out_dir / "fit.json").read_text())
+    t0 = time.perf_counter()
+    fit = fit_throw(world.data, cp, g=scene.physics.gravity_m_s2, v1=scene.v1_m_s,
+                    model=options.model, bootstrap=options.bootstrap,
+                    rng=np.random.default_rng(options.seed))
+    timings["fit"] = time.perf_counter() - t0
+    notes = list(world.warnings)
+    for name, tr in tracks.items():
+        notes += [f"{name}: {n}" for n in tr.notes]
+    extra = {"throw": Path(folder).name if Path(folder) != scene.folder else None,
+             "views": {n: tr.to_dict() for n, tr in tracks.items()},
+             "world": world.to_dict(), "stages_reused": ["tracks"] if reused else [],
+             "notes": notes}
+    record = throw_record(scene, fit, timings_s=timings, extra=extra)
+    if options.report:
+        t0 = time.perf_counter()
+        write_run_report(out_dir, record, fit=fit, world=world.data,
+                         views={n: tr.data for n, tr in tracks.items()})
+        timings["report"] = time.perf_counter() - t0
+    timings["total"] = time.perf_counter() - t_start
+    record["timings_s"] = {k: round(float(v), 6) for k, v in timings.items()}
+    write_text(out_dir / "fit.json", dumps(record))
+    write_text(out_dir / STAGES_FILE, json.dumps({"tracks": tracks_key, "fit": fit_key},
+                                                 indent=2) + "\n")
+    return record
+
+
+def fit_run(run_dir, options=FitOptions()):
+    """Fit one run folder (and each of its throws); returns the run's fit.json record."""
+    from vidtrack.fit_record import dumps, mean_record
+    from vidtrack.run_report import write_run_report
+    from vidtrack.scene import load_scene
+
+    scene = load_scene(run_dir)
+    out = scene.folder / OUT_DIR
+    throws = scene.throw_dirs()
+    if not throws:
+        return fit_throw_folder(scene, scene.folder, out, options)
+    t0 = time.perf_counter()
+    records = [fit_throw_folder(scene, d, out / d.name, options) for d in throws]
+    record = mean_record(scene, records, timings_s={
+        "throws_total": time.perf_counter() - t0})
+    if options.report:
+        write_run_report(out, record)
+    write_text(out / "fit.json", dumps(record))
+    return record
+
+
+def find_runs(paths):
+    """Run folders named by ``paths``: a run (has scene.toml), an experiment (its runs),
+    or a folder whose sub-folders are runs."""
+    from vidtrack.scene import load_experiment
+
+    runs = []
+    for p in map(Path, paths):
+        if (p / "scene.toml").is_file() or (p.is_file() and p.name == "scene.toml"):
+            runs.append(p if p.is_dir() else p.parent)
+        elif (p / "experiment.toml").is_file():
+            runs += load_experiment(p).run_dirs()
+        elif p.is_dir():
+            subs = sorted(d for d in p.iterdir() if (d / "scene.toml").is_file())
+            if not subs:
+                raise SceneError(f"{p}: no scene.toml here nor in its sub-folders "
+                                 "(expected a run folder or a folder of runs)")
+            runs += subs
+        else:
+            raise SceneError(f"{p}: no such run folder")
+    return runs
+
+
+def _fit_one(args):
+    run_dir, options = args
+    return fit_run(run_dir, options)
+
+
+def fit_runs(run_dirs, options=FitOptions(), *, jobs=1, scheduler=None, progress=None):
+    """Fit several runs, in parallel processes (``jobs``) or on a Dask cluster.
+
+    Parameters
+    ----------
+    run_dirs : sequence of path
+    options : FitOptions
+    jobs : int
+        Worker processes (1: in this process).
+    scheduler : str, optional
+        Address of a dask.distributed scheduler (needs the ``dask`` extra).
+    progress : callable, optional
+        Called with each finished run's record.
+
+    Returns
+    -------
+    list of dict
+        The fit.json records, in the order of ``run_dirs``.
+    """
+    work = [(Path(r), options) for r in run_dirs]
+    if scheduler:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise SceneError("--scheduler needs dask.distributed: pip install "
+                             "'vidtrack[dask]'") from None
+        with Client(scheduler) as client:
+            futures = client.map(_fit_one, work, pure=False)
+            results = client.gather(futures)
+        for r in results:
+            if progress:
+                progress(r)
+        return results
+    if jobs <= 1 or len(work) == 1:
+        results = []
+        for w in work:
+            results.append(_fit_one(w))
+            if progress:
+                progress(results[-1])
+        return results
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        results = []
+        for r in pool.map(_fit_one, work):
+            results.append(r)
+            if progress:
+                progress(r)
+        return results
