@@ -323,9 +323,16 @@ def other_behind(work, level, *, width, min_area):
     """
     sel = work.sel
     opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
-    if np.count_nonzero(cv2.dilate(sel, _K5) & opp) < min_area:
+    hug = cv2.dilate(sel, _K5)
+    if np.count_nonzero(hug & opp) < min_area:
         return False
     k = 2 * int(math.ceil(max(width or 1.0, 1.0))) + 3
+    kernel = np.ones((k + 4, k + 4), np.uint8)
+    # an object is solid (survives a 3 x 3 opening) and reaches beyond the 2-pixel seam
+    # where compression rings round the straw's edges: a halo is not an object
+    solid = cv2.morphologyEx(opp, cv2.MORPH_OPEN, _K3)
+    if np.count_nonzero(cv2.dilate(sel, kernel) & ~hug & solid) < min_area:
+        return False
     kernel = np.ones((k, k), np.uint8)
     near = cv2.dilate(sel, kernel).view(bool)
     obj = opp.view(bool) & near
