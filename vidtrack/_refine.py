@@ -54,16 +54,33 @@ def leave_one_out_residuals(tau, pos, idx, *, half=4, span=6.5):
     -------
     numpy.ndarray
         Residual (px) per clean point; NaN where fewer than 4 neighbours exist.
+
+    Notes
+    -----
+    The least-squares weights depend only on the neighbours' time offsets, which are
+    the same for nearly every point of an unbroken track: they are computed once per
+    pattern.
     """
     res = np.full(idx.size, np.nan)
+    cache = {}
     for k, i in enumerate(idx):
         lo = idx[max(0, k - half):k]
         hi = idx[k + 1:k + 1 + half]
-        nb = np.concatenate([lo, hi])
-        nb = nb[np.abs(tau[nb] - tau[i]) <= span]
-        if nb.size < 4 or lo.size == 0 or hi.size == 0:
+        if lo.size == 0 or hi.size == 0:
             continue
-        pred = _quad_fit(tau[nb], pos[nb], tau[i])[0]
+        nb = np.concatenate([lo, hi])
+        off = tau[nb] - tau[i]
+        keep = np.abs(off) <= span
+        if np.count_nonzero(keep) < 4:
+            continue
+        nb, off = nb[keep], off[keep]
+        key = np.round(off, 6).tobytes()
+        w = cache.get(key)
+        if w is None:
+            deg = 2 if off.size >= 4 else 1
+            w = np.linalg.pinv(np.vander(off, deg + 1, increasing=True))[0]
+            cache[key] = w
+        pred = w @ pos[nb]
         res[k] = float(np.hypot(*(pos[i] - pred)))
     return res
 

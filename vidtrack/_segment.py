@@ -131,18 +131,40 @@ class Segmenter:
         rows, cols = self.shape
         ad = cv2.absdiff(frame, self._bg_int(0, rows, 0, cols, gain))
         mask = cv2.compare(ad, self.thr_int, cv2.CMP_GT)
+        if cv2.countNonZero(mask) == 0:
+            return []
         d = self.decimate
-        if d > 1:
-            small = cv2.resize(mask, self.small_size, interpolation=cv2.INTER_AREA)
-            # a block counts when at least 2 of its d*d pixels are foreground
-            small = cv2.compare(small, 255.0 * 1.5 / (d * d), cv2.CMP_GT)
-        else:
-            small = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((1, 2), np.uint8)) | \
-                cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((2, 1), np.uint8))
+        sw, sh = self.small_size
+        # foreground pixels counted per d x d block (a block counts with 2 or more);
+        # only the bands of rows that have any are looked at (most frames: a few)
+        rowany = mask.any(axis=1)
+        band_any = np.zeros(sh, bool)
+        np.logical_or.at(band_any, np.minimum(np.flatnonzero(rowany) // d, sh - 1), True)
+        bands = np.flatnonzero(band_any)
+        rows_idx = (bands[:, None] * d + np.arange(d)[None, :]).reshape(-1)
+        rows_idx = rows_idx[rows_idx < rows]
+        flat = np.flatnonzero(mask[rows_idx])
+        py, px = rows_idx[flat // cols], flat % cols
+        cell = np.minimum(py // d, sh - 1) * sw + np.minimum(px // d, sw - 1)
+        counts = np.bincount(cell, minlength=sw * sh)
+        need = 2 if d > 1 else 1
+        hit = np.flatnonzero(counts >= need)
+        if not hit.size:
+            return []
+        hy, hx = hit // sw, hit % sw
+        y0c, y1c, x0c, x1c = int(hy.min()), int(hy.max()) + 1, int(hx.min()), int(hx.max()) + 1
+        small = np.zeros((y1c - y0c, x1c - x0c), np.uint8)
+        small[hy - y0c, hx - x0c] = 255
+        if d == 1:
+            # single isolated pixels are noise: keep pixels with a neighbour
+            nb = cv2.filter2D(small, cv2.CV_16U, _K3, borderType=cv2.BORDER_CONSTANT)
+            small[nb <= 255] = 0
         n, _, stats, _ = cv2.connectedComponentsWithStats(small, connectivity=8)
         out = []
         for k in range(1, n):
-            x, y, w, h, a = (int(s) for s in stats[k])
+            x, y, w, h, a = (int(q) for q in stats[k])
+            x += x0c
+            y += y0c
             out.append((min(cols, x * d), min(rows, y * d), min(cols, (x + w) * d),
                         min(rows, (y + h) * d), a * d * d))
         out.sort(key=lambda b: -b[4])

@@ -346,6 +346,13 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
         if not boxes:
             return []
         pad = 2 * seg.decimate + 2
+        if lost_state is not None:
+            # a straw that was followed and lost is looked for only where it can be
+            got = lost_gate(tau[i])
+            if got is not None:
+                p, _, _, gate = got
+                boxes = [bx for bx in boxes
+                         if max(bx[0] - p[0], p[0] - bx[2], bx[1] - p[1], p[1] - bx[3]) <= gate]
         rois = []
         for x0, y0, x1, y1, _ in boxes[:8]:
             r = [max(0, x0 - pad), max(0, y0 - pad), min(cols, x1 + pad), min(rows, y1 + pad)]
@@ -376,18 +383,28 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
                     out.append(b)
         return out
 
-    def consistent_with_lost(tr):
-        if lost_state is None:
-            return True
+    def lost_gate(t_new):
+        """Where the lost straw may be now: (position, velocity, acceleration, gate)."""
         pred, t_lost = lost_state
-        t_new = tr.points[-1][0]
         st = pred.state(t_new)
         if st is None:
-            return True
+            return None
         p, vel, acc = st
         gap = t_new - t_lost
         speed = float(np.hypot(*vel))
         gate = 10.0 + 0.15 * speed * gap + 0.5 * float(np.hypot(*acc)) * gap * gap
+        return p, vel, acc, gate
+
+    def consistent_with_lost(tr):
+        if lost_state is None:
+            return True
+        t_new = tr.points[-1][0]
+        got = lost_gate(t_new)
+        if got is None:
+            return True
+        p, vel, acc, gate = got
+        gap = t_new - lost_state[1]
+        speed = float(np.hypot(*vel))
         pts = np.array(tr.points[-2:])
         tv = (pts[1, 1:] - pts[0, 1:]) / max(pts[1, 0] - pts[0, 0], 1e-9)
         vgate = 2.0 + 0.3 * speed + float(np.hypot(*acc)) * gap
