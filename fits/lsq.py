@@ -9,7 +9,9 @@ Each axis is its own ODE (``fits.throw``), so each is fitted on its own:
 Bounded nonlinear least squares (``scipy.optimize.least_squares``, trust region
 reflective) in scaled variables, from several robust starting values (polynomial fits
 of the track). Standard errors and 95 % intervals come from the Jacobian at the solution
-(an SVD, never an explicit inverse); a residual bootstrap is an option. What the track
+(an SVD, never an explicit inverse), widened by the AR(1) factor of the residuals
+lag-1 autocorrelation (tracking errors are smooth, not white); a residual bootstrap is
+an option. What the track
 cannot determine is reported as not determined with the reason, never as a number:
 no descent in view (k2), no ascent (k1), no top view (k4), too few points, cp = 0 (k3
 and k4 have no effect), an interval that includes 0.
@@ -71,6 +73,7 @@ class AxisFit:
     nfev: int
     rss: float
     ci95: np.ndarray
+    autocorrelation: float = 0.0
     notes: tuple = ()
 
     def value(self, name):
@@ -81,6 +84,7 @@ class AxisFit:
                 "stderr": dict(zip(self.names, self.stderr.tolist())),
                 "correlation": self.correlation.tolist(), "residual_rms_m": self.residual_rms_m,
                 "points": self.n_points, "condition_number": self.condition_number,
+                "residual_autocorrelation": self.autocorrelation,
                 "nfev": self.nfev, "notes": list(self.notes)}
 
 
@@ -130,6 +134,8 @@ class ThrowFit:
                 "residual_rms_m": self.residual_rms_m, "points": self.points,
                 "condition_number": {a: (f.condition_number if f else None)
                                      for a, f in self.axes.items()},
+                "residual_autocorrelation": {a: (f.autocorrelation if f else None)
+                                             for a, f in self.axes.items()},
                 "aic": self.aic()}
 
 
@@ -203,8 +209,22 @@ def _jacobian(fun, t, p, scale):
     return np.column_stack(cols)
 
 
+def _lag1_autocorrelation(t, r):
+    """Lag-1 autocorrelation of the residuals in time order, clipped to [0, 0.95]."""
+    r = r[np.argsort(t, kind="stable")]
+    den = float(r @ r)
+    if r.size < 3 or den == 0:
+        return 0.0
+    return float(np.clip((r[:-1] @ r[1:]) / den, 0.0, 0.95))
+
+
 def _statistics(problem, t, obs, res, scale):
-    """Covariance from the SVD of the scaled Jacobian; errors, intervals, conditioning."""
+    """Covariance from the SVD of the scaled Jacobian; errors, intervals, conditioning.
+
+    Tracking errors are smooth over frames, not white: the covariance is inflated by
+    (1 + rho) / (1 - rho), rho the residuals' lag-1 autocorrelation (the AR(1) variance
+    factor; 1 for white residuals), so the intervals stay honest on real footage.
+    """
     p = res.x * scale
     r = problem.fun(t, p) - obs
     n, k = obs.size, p.size
@@ -218,7 +238,8 @@ def _statistics(problem, t, obs, res, scale):
         inv_s2 = np.where(s > s[0] * 1e-13, 1.0 / s**2, np.inf)
     cov_q = (vt.T * inv_s2) @ vt * s2 if np.all(np.isfinite(inv_s2)) else \
         np.full((k, k), np.inf)
-    cov = cov_q * np.outer(scale, scale)
+    rho = _lag1_autocorrelation(t, r)
+    cov = cov_q * np.outer(scale, scale) * ((1 + rho) / (1 - rho))
     se = np.sqrt(np.abs(np.diag(cov)))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(se, se)
@@ -227,7 +248,8 @@ def _statistics(problem, t, obs, res, scale):
     return AxisFit(axis=problem.axis, names=problem.names, values=p, stderr=se,
                    covariance=cov, correlation=corr,
                    residual_rms_m=float(np.sqrt(rss / n)), n_points=n, dof=dof,
-                   condition_number=cond, nfev=int(res.nfev), rss=rss, ci95=ci)
+                   condition_number=cond, nfev=int(res.nfev), rss=rss, ci95=ci,
+                   autocorrelation=rho)
 
 
 def _bootstrap(problem, t, obs, fit, n_boot, rng):

@@ -69,7 +69,8 @@ def png_bytes(fig, *, dpi=90):
 
     FigureCanvasAgg(fig)
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+    # no bbox_inches="tight": it draws the figure twice; figures use tight_layout
+    fig.savefig(buf, format="png", dpi=dpi)
     return buf.getvalue()
 
 

@@ -48,6 +48,8 @@ def throw_record(scene, fit, *, timings_s, world_points=None, extra=None):
         "throws": 1,
         "timings_s": {k: round(float(v), 6) for k, v in timings_s.items()},
         "condition_number": {k: _num(v) for k, v in d["condition_number"].items()},
+        "residual_autocorrelation": {k: _num(v) for k, v in
+                                     d["residual_autocorrelation"].items()},
         "aic": _num(d["aic"]),
         "vidtrack_version": __version__,
         "scene_hash": scene.hash,

@@ -54,8 +54,7 @@ def bench_fit(out_dir, *, quick=False, progress=None):
     """k error against frames used and run time; whole fit against plain decoding."""
     from vidtrack.bench.fit import run_fit_bench
 
-    table = run_fit_bench(out_dir, quick=quick)
-    return table.to_string(index=False)
+    return run_fit_bench(out_dir, quick=quick)
 
 
 RUNNERS = {"model": bench_model, "track": bench_track, "fit": bench_fit}
