@@ -9,7 +9,7 @@ from vidtrack.errors import TrackError
 from vidtrack.frames import open_source
 from vidtrack.scene import load_scene
 from vidtrack.stereo import WORLD_COLUMNS, merge_tracks, view_world
-from vidtrack.tracker import track
+from vidtrack.tracker import Track, track
 
 FPS = 1200.0
 DELAY_FRAMES = 0.37            # the top camera's frames are this much later
@@ -68,6 +68,19 @@ def test_given_sync_frames_and_the_x_check_warns_on_a_wrong_scale(delayed):
     w2 = merge_tracks(tracks, wrong, sync={"front": 12, "top": 12})
     assert w2.x_rms_px > 1.0
     assert any("disagree on X" in s for s in w2.warnings)
+
+
+def test_views_at_different_frame_rates(delayed):
+    # the top camera at half the rate: keep every other frame of its track
+    run, tracks, mappings = delayed
+    top = tracks["top"]
+    half = Track(data=top.data.iloc[::2].reset_index(drop=True), **{
+        k: getattr(top, k) for k in ("view", "release_frame", "release_note", "release_t_s",
+                                     "fps", "frame_shape", "noise_sigma", "k_sigma",
+                                     "straw_level", "scatter_px", "notes")})
+    w = merge_tracks({"front": tracks["front"], "top": half}, mappings)
+    assert (w.t0_s["front"] - w.t0_s["top"]) * FPS == pytest.approx(DELAY_FRAMES, abs=0.15)
+    assert w.x_rms_px < 0.3 and np.isfinite(w.data["z_m"]).sum() >= 50
 
 
 def test_one_view_leaves_its_missing_axis_nan(delayed):

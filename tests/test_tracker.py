@@ -122,6 +122,17 @@ def test_leaving_the_frame_is_flagged_border_then_lost():
     assert np.sqrt(np.mean(err[ok] ** 2)) <= 0.25
 
 
+def test_sixteen_bit_image_folder():
+    run = synth_run("png16", views=("front",), output_format="png", bit_depth=16)
+    tr, per_frame, vt = _track_view(run, "front")
+    err = centroid_errors(tr, per_frame)
+    ok = tr.usable
+    assert ok.sum() >= 0.6 * len(per_frame)
+    assert np.sqrt(np.mean(err[ok] ** 2)) <= 0.25
+    assert abs(tr.release_frame - vt["release_frame"]) <= 1
+    assert tr.noise_sigma > 100          # measured in 16-bit grey levels
+
+
 def test_blade_region_flags_overlap(default_run):
     per_frame, vt = view_truth(default_run, "front")
     blade = vt["blade"]
