@@ -1,9 +1,23 @@
 """Numbers only: throw models, blade release, least squares, response surfaces, ANOVA.
 
-This package imports numpy, scipy, pandas and statsmodels; never cv2, never
-``vidtrack`` or ``calibration``.
+Modules (import what you use; ``import fits`` stays light):
+
+- ``fits.throw``: ``position``, ``velocity``, ``apex``, ``terminal_speed``,
+  ``flight_y``, ``flight_drag`` (stable closed forms; Chen 2018 eqs. 11-18, Liao 2021,
+  Hou 2019); ``fits.throw_ode.solve_throw`` (the ODE reference);
+  ``fits.throw_printed.printed_position`` (the printed forms, for comparison);
+  ``fits.throw_mp.position_mp`` (50-digit truth).
+- ``fits.blade``: the slide along the blade and the release (eqs. 1-10).
+- ``fits.lsq``: ``fit_throw``, ``compare_models`` (least squares of a world track).
+- ``fits.rsm``: ``Factor``, ``fit_rsm``, ``read_table`` (response surfaces, Table 3).
+- ``fits.orthogonal``: ``fit_orthogonal`` (Hou 2019 Table 4).
+- ``fits.compare``: ``compare``, ``read_published`` (side by side with a paper).
+- ``fits.metrics``: the field measures.
+
+This package imports numpy, scipy and pandas; never cv2, never ``vidtrack`` or
+``calibration``.
 """
 
-from fits.errors import InputError
+from fits.errors import ConvergenceError, InputError
 
-__all__ = ["InputError"]
+__all__ = ["ConvergenceError", "InputError"]
