@@ -91,15 +91,18 @@ def _subsample_rows(world, step):
     return world.iloc[::step].reset_index(drop=True)
 
 
-def run_fit_bench(out_dir, *, quick=False):
-    """Run both parts; write bench_fit.csv, bench_fit_command.csv and bench_fit.png."""
+def run_fit_bench(out_dir, *, quick=False, seeds=None):
+    """Run both parts; write bench_fit.csv, bench_fit_command.csv and bench_fit.png.
+
+    ``kN_coverage`` is the fraction of seeds whose 95 % interval covers the truth.
+    """
     from fits.lsq import fit_throw
     from vidtrack.pipeline import FitOptions, fit_run
     from vidtrack.scene import load_scene
     from vidtrack.tracks_io import read_tracks
 
     out_dir = Path(out_dir)
-    seeds = (1, 2) if quick else (1, 2, 3, 4, 5)
+    seeds = seeds or ((1, 2) if quick else tuple(range(1, 11)))
     rows, command_rows = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for seed in seeds:
@@ -122,6 +125,8 @@ def run_fit_bench(out_dir, *, quick=False):
                                              if c.determined else np.nan)
                     row[f"{k}_stderr_pct"] = (100 * c.stderr / truth[k]
                                               if c.determined else np.nan)
+                    row[f"{k}_covered"] = (float(c.ci95[0] <= truth[k] <= c.ci95[1])
+                                           if c.determined else np.nan)
                 rows.append(row)
             # the whole command against plain decoding, in one run
             command_rows.append(_time_command(run, SIZES[0][0], seed))
@@ -132,6 +137,7 @@ def run_fit_bench(out_dir, *, quick=False):
     summary = (table.groupby("fps", sort=False)
                .agg(**{f"{k}_rms_error_pct": (f"{k}_error_pct", _rms) for k in K_NAMES},
                     **{f"{k}_stderr_pct": (f"{k}_stderr_pct", "median") for k in K_NAMES},
+                    **{f"{k}_coverage": (f"{k}_covered", "mean") for k in K_NAMES},
                     fit_time_s=("fit_time_s", "median"), points_y=("points_y", "median"))
                .reset_index())
     with atomic_path(out_dir / "bench_fit.csv") as t:

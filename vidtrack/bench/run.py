@@ -50,11 +50,12 @@ def bench_track(out_dir, *, quick=False, progress=None):
     return table.to_string(index=False)
 
 
-def bench_fit(out_dir, *, quick=False, progress=None):
+def bench_fit(out_dir, *, quick=False, progress=None, seeds=None):
     """k error against frames used and run time; whole fit against plain decoding."""
     from vidtrack.bench.fit import run_fit_bench
 
-    return run_fit_bench(out_dir, quick=quick)
+    return run_fit_bench(out_dir, quick=quick,
+                         seeds=tuple(range(1, seeds + 1)) if seeds else None)
 
 
 RUNNERS = {"model": bench_model, "track": bench_track, "fit": bench_fit}

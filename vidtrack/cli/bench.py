@@ -10,6 +10,8 @@ pick, in one run on this machine, and write a table (TEXT, CSV) and a plot (PNG)
          typical, a stiff and an extreme case, against 50-digit truth; plus the blade
          slide (eqs. 2 and 3 against the exact solution)
   track  the tracker against decode-only, trackpy.locate and an OpenCV tracker
+  fit    k error against frames used (1200..150 fps) and run time, interval coverage
+         over seeded runs, and the whole 'vidtrack fit' against plain decoding
 
 Examples:
   vidtrack bench model
@@ -27,6 +29,9 @@ def add_arguments(parser):
                              "(default: ./vidtrack-bench)")
     parser.add_argument("--quick", action="store_true",
                         help="fewer tolerances and repeats: a smoke run in seconds")
+    parser.add_argument("--seeds", type=int, default=None, metavar="N",
+                        help="fit only: number of seeded synthetic runs (default 10; "
+                             "e.g. --seeds 40 for the interval coverage)")
 
 
 def run(args):
@@ -38,7 +43,12 @@ def run(args):
         if not args.quiet and sys.stderr.isatty():
             print(f"  {args.which}: {name} done", file=sys.stderr)
 
-    text = RUNNERS[args.which](args.out, quick=args.quick, progress=progress)
+    from vidtrack.errors import VidtrackError
+
+    if args.seeds is not None and (args.which != "fit" or args.seeds < 1):
+        raise VidtrackError("--seeds goes with 'vidtrack bench fit' and must be >= 1")
+    extra = {"seeds": args.seeds} if args.which == "fit" else {}
+    text = RUNNERS[args.which](args.out, quick=args.quick, progress=progress, **extra)
     print(text)
     print(f"\nwritten to {args.out}/")
     return 0
