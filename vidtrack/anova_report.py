@@ -145,7 +145,7 @@ def _rsm_interaction(fit, term):
     ax3.set_zlabel(fit.response)
     ax3.set_title(f"{fit.response}: surface of {term}", fontsize=10)
     fig.suptitle("other factors at their centre", fontsize=9)
-    fig.subplots_adjust(left=0.07, right=0.96, bottom=0.12, top=0.86, wspace=0.3)
+    fig.subplots_adjust(left=0.1, right=0.96, bottom=0.12, top=0.86, wspace=0.3)
     return _png(fig)
 
 
