@@ -1,5 +1,8 @@
 """The two-view merge on synthetic runs whose clocks and world positions are known."""
 
+import shlex
+from pathlib import Path
+
 import numpy as np
 import pytest
 from synth_runs import synth_run, truth, view_truth
@@ -9,7 +12,26 @@ from vidtrack.errors import TrackError
 from vidtrack.frames import open_source
 from vidtrack.scene import load_scene
 from vidtrack.stereo import WORLD_COLUMNS, merge_tracks, view_world
-from vidtrack.tracker import Track, track
+from vidtrack.tracker import PRE_RELEASE, Track, track
+
+RUN42 = Path(__file__).resolve().parents[1] / "datasets" / "run42"
+#: A run of the ``vidtrack report`` end-to-end test (tests/test_cli_report.py): the
+#: straw rides the rotor tooth for 12 frames, clear of it for some of them.
+SMALL_RUN = ("vidtrack synth OUT --size 300x140 --top-size 300x90 --straw-length-m 0.25 "
+             "--straw-diameter-m 0.025 --flight-s 0.25 --noise 1.0 --k 3.25,2.8,4.2,19.3 "
+             "--n-rpm 650 --blade-angle-deg -5 --seed 2")
+
+
+def _track_scene(folder):
+    scene = load_scene(folder)
+    tracks = {}
+    for name, view in scene.views.items():
+        with open_source(view.source, fps=view.fps, frames=view.frames) as src:
+            tracks[name] = track(src, view=name)
+    mappings = {n: v.mapping() for n, v in scene.views.items()}
+    world = merge_tracks(tracks, mappings, sync={n: v.sync_frame for n, v in
+                                                 scene.views.items()})
+    return scene, tracks, world
 
 FPS = 1200.0
 DELAY_FRAMES = 0.37            # the top camera's frames are this much later
@@ -108,3 +130,95 @@ def test_bad_input(delayed):
     with pytest.raises(TrackError, match="frame index"):
         merge_tracks(tracks, mappings, sync={"front": 1.5})
     assert truth(run)["views"]["top"]["delay_s"] == pytest.approx(DELAY_FRAMES / FPS)
+
+
+def test_merged_tracks_flag_exactly_the_frames_before_each_views_time_zero(delayed):
+    run, tracks, mappings = delayed
+    w = merge_tracks(tracks, mappings)
+    assert tracks["top"].release_frame is None             # not looked for in the top view
+    for name in ("front", "top"):
+        got = w.tracks[name]
+        t = got.data["t_s"].to_numpy()
+        measured = np.isfinite(got.data["u_px"].to_numpy())
+        before = t < w.t0_s[name] - 0.2 / FPS
+        flags = got.data["flags"].to_numpy()
+        assert np.all(flags[before & measured] & PRE_RELEASE)
+        assert not np.any(flags[~before] & PRE_RELEASE)
+        assert got.release_t_s == pytest.approx(w.t0_s[name])
+    top = w.tracks["top"]
+    assert "carried over from the front view" in top.release_note
+    assert abs(top.release_frame - view_truth(run, "top")[1]["release_frame"]) <= 1
+    # a given sync_frame overrides the detected release
+    w = merge_tracks(tracks, mappings, sync={"front": 20, "top": "auto"})
+    flags = w.tracks["front"].data["flags"].to_numpy()
+    frames = w.tracks["front"].data["frame"].to_numpy()
+    measured = np.isfinite(w.tracks["front"].data["u_px"].to_numpy())
+    assert np.all(flags[(frames < 20) & measured] & PRE_RELEASE)
+    assert not np.any(flags[frames >= 20] & PRE_RELEASE)
+    assert w.tracks["front"].release_frame == 20
+
+
+# ------------------------------------------------------------ the release on real runs
+@pytest.fixture(scope="module")
+def run42():
+    return _track_scene(RUN42)
+
+
+def test_run42_release_and_time_zero_within_a_frame_of_truth(run42):
+    scene, tracks, w = run42
+    t = truth(RUN42)
+    front = tracks["front"]
+    assert abs(front.release_frame - t["views"]["front"]["release_frame"]) <= 1
+    assert abs(front.release_t_s * 1200.0 - t["views"]["front"]["t0_frame"]) <= 1.0
+    assert w.sync == {"front": "release", "top": "shared x"}
+    for name in ("front", "top"):
+        vt = t["views"][name]
+        assert abs(w.t0_s[name] * vt["fps"] - vt["t0_frame"]) <= 1.0, name
+        assert abs(w.tracks[name].release_frame - vt["release_frame"]) <= 1, name
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    from vidtrack.cli import build_parser
+    from vidtrack.cli.synth import spec_from_args
+    from vidtrack.synth import render_run
+
+    out = tmp_path_factory.mktemp("report-run") / "run"
+    args = build_parser().parse_args(shlex.split(SMALL_RUN.replace("OUT", str(out)))[1:])
+    render_run(out, spec_from_args(args))
+    return (out, *_track_scene(out))
+
+
+def test_small_run_release_found_and_no_frame_of_the_ride_fitted(small_run):
+    out, scene, tracks, w = small_run
+    per_frame, vt = view_truth(out, "front")
+    assert abs(tracks["front"].release_frame - vt["release_frame"]) <= 1
+    assert abs(w.t0_s["front"] * vt["fps"] - vt["t0_frame"]) <= 1.0
+    assert w.data["t_s"].min() >= 0.0
+    for name in ("front", "top"):
+        per_frame, vt = view_truth(out, name)
+        merged = w.tracks[name]
+        ride = per_frame["phase"].to_numpy() == "blade"
+        assert ride.sum() == vt["release_frame"]
+        # riding the tooth the straw is at times clear of it: only the release says
+        # that these frames are not free flight
+        own = tracks[name].data["flags"].to_numpy()[ride] & ~PRE_RELEASE
+        assert np.any(own == 0), name
+        assert not np.any(merged.usable & ride), name
+        assert np.all(merged.data["flags"].to_numpy()[ride[:len(merged.data)] &
+                      np.isfinite(merged.data["u_px"].to_numpy())] != 0)
+
+
+def test_small_run_world_track_fits_the_truth(small_run):
+    from fits.lsq import fit_throw
+
+    out, scene, tracks, w = small_run
+    t = truth(out)["truth"]
+    fit = fit_throw(w.data, scene.cp_s_per_m, g=scene.physics.gravity_m_s2, v1=scene.v1_m_s)
+    for k, rel in (("k1", 0.03), ("k2", 0.03), ("k3", 0.03), ("k4", 0.05)):
+        assert fit.coefficients[k].value == pytest.approx(t["k"][k], rel=rel), k
+    st = fit.initial_state
+    assert st["x0_m"] == pytest.approx(t["state"]["x0_m"], abs=0.01)
+    assert st["y0_m"] == pytest.approx(t["state"]["y0_m"], abs=0.01)
+    assert st["vx0_m_s"] == pytest.approx(t["state"]["vx0_m_s"], rel=0.03)
+    assert st["vy0_m_s"] == pytest.approx(t["state"]["vy0_m_s"], rel=0.03)

@@ -8,11 +8,14 @@ import pytest
 from rod_render import compose, rod_coverage, texture
 from synth_runs import centroid_errors, synth_run, view_truth
 
+from fits.throw import position
+from vidtrack import _refine
 from vidtrack.background import Background
 from vidtrack.errors import TrackError
 from vidtrack.frames import open_source
+from vidtrack.synth import SynthSpec, straw_pose
 from vidtrack.tracker import (BLADE, BORDER, FLAGS, LOST, MERGED, PRE_RELEASE, PREDICTED,
-                              TRACK_COLUMNS, describe_flags, track)
+                              TRACK_COLUMNS, _release_evidence, describe_flags, track)
 from vidtrack._segment import Segmenter, measure, read_level, work_margin
 
 
@@ -75,6 +78,8 @@ def test_centroid_rms_on_unflagged_frames(default_run, view):
     assert np.all(err[ok] < 1.0)
     # the time base is the capture rate, not the container's 30 fps
     assert np.allclose(np.diff(tr.data["t_s"]), 1 / 1200.0)
+    if view == "top":       # edge-on to the rotor: the merge carries the release over
+        assert tr.release_frame is None and "top view" in tr.release_note
 
 
 def test_release_frame_detected_and_ride_on_the_blade_flagged(default_run):
@@ -89,6 +94,67 @@ def test_release_frame_detected_and_ride_on_the_blade_flagged(default_run):
     assert np.all(flags[before] & (PRE_RELEASE | MERGED))
     # while the straw overlaps the rotor's teeth its frames are flagged
     assert np.all(flags[per_frame["blade_overlap"].to_numpy()] != 0)
+
+
+# --------------------------------------------------------------------- the release
+FPS, M_PER_PX = 1200.0, 0.007
+STATE, K, CP = (0.24, -0.05, 0.0, 7.3, 2.6, 2.0), (2.2, 2.5, 4.6, 21.3), 0.115
+
+
+def _front_px(xyz):
+    return np.column_stack([xyz[:, 0], -xyz[:, 1]]) / M_PER_PX
+
+
+def _ride_then_flight(n, release):
+    """The straw's path in front-view pixels: on the rotor tooth, then thrown (synth's
+    truth generator: a tooth turning at the rate that keeps the velocity continuous)."""
+    rate = (STATE[0] * STATE[4] - STATE[1] * STATE[3]) / (STATE[0] ** 2 + STATE[1] ** 2)
+    centre, _ = straw_pose((np.arange(n) - release) / FPS, STATE, K, spec=SynthSpec(),
+                           blade_rad_s=rate, spin_rad_s=rate)
+    return _front_px(centre)
+
+
+@pytest.mark.parametrize("release", [6, 12, 20])
+def test_release_found_where_the_ride_ends_though_the_straw_is_clear_of_the_tooth(release):
+    # the straw is clear of the tooth (unflagged) for its first frames, merged with it
+    # from frame 4 to 34 (centroids off by 0.05 px, four of them by up to 1.5 px), then
+    # clean in flight (0.03 px): the release must come from the path, not the flags
+    n = 150
+    tau = np.arange(n, dtype=float)
+    flags = np.zeros(n, np.int64)
+    flags[4:34] = MERGED
+    errs = []
+    for seed in range(6):
+        rng = np.random.default_rng(seed)
+        noise = np.where(flags[:, None] > 0, 0.05, 0.03) * rng.standard_normal((n, 2))
+        noise[rng.choice(np.arange(4, 34), 4, replace=False)] += rng.uniform(-1.5, 1.5, (4, 2))
+        pos = _ride_then_flight(n, release) + noise
+        rel, rel_tau, note = _refine.find_release(
+            tau, pos, _release_evidence(pos[:, 0], flags), first_in_open=True)
+        assert rel is not None and "ride on the blade" in note
+        assert abs(rel - release) <= 1 and rel == int(np.ceil(rel_tau - 0.2))
+        errs.append(rel_tau - release)
+    assert np.sqrt(np.mean(np.square(errs))) <= 1.0
+
+
+def test_no_release_in_free_flight_or_where_the_acceleration_barely_changes():
+    n = 120
+    tau = np.arange(n, dtype=float)
+    rng = np.random.default_rng(11)
+    free = _front_px(position(tau / FPS, STATE, K, CP))
+    pos = free + 0.03 * rng.standard_normal((n, 2))
+    every = np.ones(n, bool)
+    rel, rel_tau, note = _refine.find_release(tau, pos, every, first_in_open=False)
+    assert rel is None and rel_tau is None and "not identifiable" in note
+    rel, rel_tau, note = _refine.find_release(tau, pos, every, first_in_open=True)
+    assert rel == 0 and rel_tau is None and "first seen in free flight" in note
+    # a clear kink whose acceleration before is only 1.5 x that after: not a ride on
+    # the blade (hundreds of m/s^2 against tens in flight)
+    acc = 2.0 * np.polyfit(tau[20:], free[20:], 2)[0]
+    kinked = free + 0.25 * acc * np.clip(20.0 - tau, 0.0, None)[:, None] ** 2
+    pos = kinked + 0.01 * rng.standard_normal((n, 2))
+    rel, rel_tau, note = _refine.find_release(tau, pos, every, first_in_open=False)
+    assert rel is None and "not the ride's strong acceleration" in note
 
 
 @pytest.mark.parametrize("view", ["front", "top"])

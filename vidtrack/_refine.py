@@ -9,10 +9,11 @@ are never used to judge others.
   flagged OUTLIER.
 - :func:`find_release`: position and velocity are continuous at the release, the
   acceleration jumps (riding the blade the straw is pushed round at hundreds of m/s^2;
-  in free flight only gravity and drag act): a spline knot fitted to the start of the
-  path finds the instant to a fraction of a frame. Without a significant knot the
-  release is its first frame when the straw appeared in the open (not at the border,
-  not on another moving object), else not identifiable (None).
+  in free flight only gravity and drag act): a spline knot fitted robustly to the start
+  of the path finds the instant to a fraction of a frame. Without a significant knot
+  after which the acceleration is much smaller, the release is its first frame when the
+  straw appeared in the open (not at the border, not on another moving object), else
+  not identifiable (None).
 - :func:`bridge_gaps`: runs of at most ``max_gap`` frames without a measurement, with
   clean points on both sides, get positions from a quadratic through up to 3 clean
   points on each side, flagged PREDICTED.
@@ -101,28 +102,60 @@ def flag_outliers(tau, pos, flags, *, clean_mask, outlier_flag, min_px=1.0):
     return scale
 
 
-def _knot_rss(t, p, tau_k, cols):
-    """Residual sum of squares of the C1 spline with a knot at ``tau_k`` (both axes)."""
-    pre = np.clip(tau_k - t, 0.0, None)
-    a = np.column_stack(cols + [pre ** 2])
-    coef, *_ = np.linalg.lstsq(a, p, rcond=None)
-    r = p - a @ coef
-    return float(np.sum(r * r)), r
+#: Tukey's biweight tuning constant (in robust sigmas of the residual distance).
+TUKEY = 4.685
 
 
-def find_release(tau, pos, usable_mask, *, first_in_open, latest=None, window=60,
-                 min_after=10, significance=25.0):
+def _knot_design(ts, tk):
+    """Columns of the C1 spline: a cubic in ``ts`` plus ``(tk - ts)_+^2`` (scaled time)."""
+    pre = np.clip(tk - ts, 0.0, None)
+    return np.column_stack([np.ones_like(ts), ts, ts ** 2, ts ** 3, pre ** 2])
+
+
+def _weighted_lstsq(a, p, w):
+    """Row-weighted least squares: coefficients and the unweighted residuals."""
+    coef, *_ = np.linalg.lstsq(a * w[:, None], p * w[:, None], rcond=None)
+    return coef, p - a @ coef
+
+
+def _best_knot(ts, p, w, lo, hi, scale):
+    """Knot (frames) minimising the weighted RSS: a quarter-frame grid, refined to 0.01."""
+    def rss(g):
+        _, r = _weighted_lstsq(_knot_design(ts, g / scale), p, w)
+        return float(np.sum((r * w[:, None]) ** 2))
+
+    best, step = None, 0.25
+    grid = np.arange(lo, hi + 1e-9, step)
+    for fine in (0.05, 0.01, None):
+        best = float(grid[int(np.argmin([rss(g) for g in grid]))])
+        if fine is None:
+            return best
+        grid = np.arange(max(lo, best - step), min(hi, best + step) + 1e-9, fine)
+        step = fine
+
+
+def find_release(tau, pos, usable_mask, *, first_in_open, window=80, min_before=2,
+                 min_after=10, significance=25.0, min_ratio=2.0, huber=2.5):
     """Release (first frame of free flight) from where the path's acceleration jumps.
 
     Position and velocity are continuous at the release; the acceleration is not:
-    riding the blade the straw is pushed round (centripetal and Coriolis, hundreds of
-    m/s^2), in free flight only gravity and drag act. The first ``window`` usable
-    points are fitted with a cubic in time plus ``(tk - t)_+^2`` (a spline whose second
-    derivative jumps at ``tk``; a further cubic term for the ride would triple the
-    knot's scatter on synthetic runs), ``tk`` chosen by least
-    squares on a 0.1-frame grid and refined to 0.01 frame; the knot counts when it
-    lowers the residual sum of squares by more than ``significance`` times the noise
-    variance. The release frame is the first frame at or after ``tk - 0.2``.
+    riding the blade the straw is pushed round (centripetal and Coriolis, of order
+    omega^2 R: hundreds of m/s^2), in free flight only gravity and drag act (of order
+    k1 g: tens of m/s^2). The first ``window`` usable points are fitted with a cubic in
+    time plus ``(tk - t)_+^2``: free flight continued backward, plus the ride's extra
+    acceleration, a spline whose second derivative jumps at ``tk`` (a further cubic term
+    for the ride makes the knot unstable on synthetic runs). ``tk`` is chosen by least
+    squares on a quarter-frame grid and refined to 0.01 frame; the residuals are
+    reweighted (twice Huber at ``huber`` robust sigmas, then Tukey's biweight) and the
+    knot found again, so that a few centroids thrown off by the rotor cannot pull it
+    (on synthetic paths, 0.05 px noise and four errors of up to 1.5 px among the 30
+    frames round the release, the knot's RMS error drops from 0.6 to 0.37 frame for a
+    release 12 frames into the track; 6 frames in, Huber alone misses 8 releases in
+    30, the biweight none, at 0.9 frame RMS). The knot counts when it lowers the residual
+    sum of squares by more than ``significance`` noise variances and the acceleration
+    just before it is at least ``min_ratio`` times the free flight's there (the ride is
+    the strongly accelerated part). The release frame is the first frame at or after
+    ``tk - 0.2``.
 
     Parameters
     ----------
@@ -131,13 +164,23 @@ def find_release(tau, pos, usable_mask, *, first_in_open, latest=None, window=60
     pos : numpy.ndarray
         ``(n, 2)`` positions.
     usable_mask : numpy.ndarray of bool
-        Points that may be used (measured; merged with the blade is allowed).
+        Points that may be used (measured; merged with the rotor is allowed).
     first_in_open : bool
         The straw's first sighting touched neither the image border nor another moving
-        object: it appeared in free flight (from behind something).
-    latest : float, optional
-        Latest possible release (time in frames): the straw has left the blade by the
-        time it is first seen clear of every other moving object.
+        object: when no knot is found, it appeared in free flight (from behind
+        something) and its first frame is the release.
+    window : int
+        Usable points fitted, from the first.
+    min_before, min_after : int
+        Least usable points before and after the knot.
+    significance : float
+        Least drop of the residual sum of squares, in noise variances.
+    min_ratio : float
+        Least ratio of the acceleration before the knot to that after it.
+    huber : float
+        Residuals beyond this many robust sigmas are down-weighted in the first
+        reweightings (Huber); after them Tukey's biweight (``TUKEY`` robust sigmas)
+        drops gross errors altogether.
 
     Returns
     -------
@@ -146,44 +189,61 @@ def find_release(tau, pos, usable_mask, *, first_in_open, latest=None, window=60
         it was decided.
     """
     idx = np.flatnonzero(usable_mask)
-    if idx.size < min_after + 4:
+    if idx.size < min_after + min_before + 4:
         return None, None, "too few measured points to find the release"
     idx = idx[:window]
     t = tau[idx] - tau[idx[0]]
     p = pos[idx]
     scale = max(float(t[-1]), 1.0)
     ts = t / scale
-    cols = [np.ones_like(ts), ts, ts ** 2, ts ** 3]
-    a0 = np.column_stack(cols)
-    coef, *_ = np.linalg.lstsq(a0, p, rcond=None)
-    rss0 = float(np.sum((p - a0 @ coef) ** 2))
-    lo, hi = 1.0, float(t[-min_after])
-    if latest is not None:
-        hi = min(hi, float(latest - tau[idx[0]]))
+    lo = float(t[min_before - 1]) + 0.5
+    hi = float(t[-min_after])
     if hi <= lo:
         return _first_seen(idx, first_in_open)
-    grid = np.arange(lo, hi + 1e-9, 0.1)
-    rss = np.array([_knot_rss(ts, p, g / scale, cols)[0] for g in grid])
-    k = int(np.argmin(rss))
-    fine = np.arange(max(lo, grid[k] - 0.1), min(hi, grid[k] + 0.1) + 1e-9, 0.01)
-    rssf = np.array([_knot_rss(ts, p, g / scale, cols)[0] for g in fine])
-    tk = float(fine[int(np.argmin(rssf))])
-    rss1, resid = _knot_rss(ts, p, tk / scale, cols)
-    dof = max(2 * idx.size - 11, 1)
+    w = np.ones(idx.size)
+    tk = None
+    for it in range(6):
+        prev, tk = tk, _best_knot(ts, p, w, lo, hi, scale)
+        if it >= 3 and abs(tk - prev) < 0.005:
+            break
+        _, r = _weighted_lstsq(_knot_design(ts, tk / scale), p, w)
+        z = np.hypot(r[:, 0], r[:, 1])
+        sigma = MAD_TO_SIGMA * max(float(np.median(z)), 1e-9)
+        if it < 2:       # Huber first, then Tukey's biweight: gross errors get no say
+            cut = huber * sigma
+            w = np.where(z <= cut, 1.0, np.sqrt(cut / np.maximum(z, 1e-300)))
+        else:
+            w = np.clip(1.0 - (z / (TUKEY * sigma)) ** 2, 0.0, None)
+    a1 = _knot_design(ts, tk / scale)
+    coef, r1 = _weighted_lstsq(a1, p, w)
+    rss1 = float(np.sum((r1 * w[:, None]) ** 2))
+    _, r0 = _weighted_lstsq(a1[:, :4], p, w)
+    rss0 = float(np.sum((r0 * w[:, None]) ** 2))
+    dof = max(2 * (idx.size - a1.shape[1]) - 1, 1)
     var = max(rss1 / dof, 1e-12)
     if (rss0 - rss1) / var < significance:
         return _first_seen(idx, first_in_open)
+    tks = tk / scale
+    acc_free = (2.0 * coef[2] + 6.0 * coef[3] * tks) / scale ** 2      # px / frame^2
+    acc_ride = acc_free + 2.0 * coef[4] / scale ** 2
+    a_free = float(np.hypot(*acc_free))
+    a_ride = float(np.hypot(*acc_ride))
+    if a_ride < min_ratio * a_free:
+        return _first_seen(idx, first_in_open, weak=(a_ride, a_free))
     t_rel = tau[idx[0]] + tk
     after = np.flatnonzero(tau >= t_rel - 0.2)
     return (int(after[0]), float(t_rel),
-            "the path's acceleration jumps here (end of the ride on the blade)")
+            f"the path's acceleration drops from {a_ride:.3g} to {a_free:.3g} px/frame^2 "
+            "here (end of the ride on the blade)")
 
 
-def _first_seen(idx, first_in_open):
+def _first_seen(idx, first_in_open, weak=None):
     if first_in_open:
         return int(idx[0]), None, "the straw was first seen in free flight"
-    return None, None, ("no jump of the acceleration was found: the release is not "
-                        "identifiable in this view")
+    why = ("no jump of the acceleration was found" if weak is None else
+           f"the acceleration changes only from {weak[0]:.3g} to {weak[1]:.3g} px/frame^2, "
+           "not the ride's strong acceleration ending")
+    return None, None, f"{why}: the release is not identifiable in this view"
 
 
 def bridge_gaps(tau, pos, flags, clean_mask, *, max_gap, lost_flag, predicted_flag):

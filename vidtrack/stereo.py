@@ -16,21 +16,29 @@ X, which is how they are put on one clock and checked against each other:
 3. **The check.** On the common clock the RMS difference of the two X measurements is
    reported (m and px); a warning is recorded when it exceeds the coarser view's pixel
    scale: the views disagree (scale, origin or sync).
-4. **The world track.** Rows at the reference view's frames from t = 0 on: x from the
+4. **Before t = 0.** Every view's frames before its t = 0 (less 0.2 frame, the
+   tracker's rule for the release frame) are flagged PRE_RELEASE, and only they: a view
+   whose release was not identifiable on its own (the ``top`` view, which sees the
+   rotor's plane edge-on) gets the release carried over from the reference through the
+   shared X, and a ``sync_frame`` overrides a detected release. The re-flagged tracks
+   are :attr:`WorldTrack.tracks`.
+5. **The world track.** Rows at the reference view's frames from t = 0 on: x from the
    reference view (from the other where the reference has no usable point), y from
    ``front``, z from ``top``; a coordinate of the other view is interpolated between its
-   usable frames no more than 2 of its frames apart. NaN where not measured; with one
-   view its missing axis is NaN throughout.
+   usable frames at t >= 0 no more than 2 of its frames apart. NaN where not measured;
+   with one view its missing axis is NaN throughout.
 
-Only usable points (flags 0) enter: flagged frames never become world coordinates.
+Only usable points (flags 0) enter: flagged frames never become world coordinates, and
+no point of any view from before its t = 0 reaches the world track.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
 
 from vidtrack.errors import TrackError
+from vidtrack.tracker import PRE_RELEASE
 
 __all__ = ["WorldTrack", "merge_tracks", "view_world", "WORLD_COLUMNS"]
 
@@ -62,6 +70,11 @@ class WorldTrack:
         Points in that comparison.
     warnings : tuple of str
         Disagreement beyond the pixel scale, missing releases, and the like.
+    tracks : dict of str to vidtrack.tracker.Track or None
+        The views' tracks as merged: frames before each view's t = 0 flagged
+        PRE_RELEASE (and only those), the release carried over to a view that had none
+        of its own (``release_t_s`` is then the view's t = 0). None when read back
+        from a file.
     """
 
     data: pd.DataFrame
@@ -72,6 +85,7 @@ class WorldTrack:
     x_rms_px: float | None = None
     x_points: int = 0
     warnings: tuple = ()
+    tracks: dict | None = None
 
     def to_dict(self):
         """A JSON-ready summary (not the rows)."""
@@ -253,6 +267,9 @@ def merge_tracks(tracks, mappings, *, sync=None, min_overlap=10):
                                  min_overlap=min_overlap, name=v,
                                  scale=max(mappings[ref].m_per_px, mappings[v].m_per_px))
         how[v] = "shared x"
+    merged = {v: _flag_before_t0(tracks[v], t0[v], how[v], steps[v], ref=ref,
+                                 ref_how=how[ref]) for v in names}
+    world = {v: view_world(merged[v], mappings[v]) for v in names}
     # the check of the shared X
     x_rms_m = x_rms_px = None
     x_points = 0
@@ -275,9 +292,39 @@ def merge_tracks(tracks, mappings, *, sync=None, min_overlap=10):
                     f"({scale * 1000:.3g} mm): check the scales, origins and sync")
         else:
             warnings.append("the views have no usable points at common times: X not checked")
-    data = _world_rows(tracks, world, t0, ref, names, steps)
+    data = _world_rows(merged, world, t0, ref, names, steps)
     return WorldTrack(data=data, t0_s=t0, sync=how, reference=ref, x_rms_m=x_rms_m,
-                      x_rms_px=x_rms_px, x_points=x_points, warnings=tuple(warnings))
+                      x_rms_px=x_rms_px, x_points=x_points, warnings=tuple(warnings),
+                      tracks=merged)
+
+
+def _flag_before_t0(track, t0, how, step, *, ref, ref_how):
+    """The track with PRE_RELEASE on exactly its measured frames before t = 0.
+
+    A frame counts as before t = 0 when it is more than 0.2 frame earlier (the
+    tracker's rule for the first frame of free flight). The release fields follow the
+    view's t = 0 unless it is the view's own detected release.
+    """
+    d = track.data
+    t = d["t_s"].to_numpy(dtype=np.float64)
+    flags = d["flags"].to_numpy()
+    before = (t < t0 - 0.2 * step) & np.isfinite(d["u_px"].to_numpy(dtype=np.float64))
+    new_flags = np.where(before, flags | PRE_RELEASE, flags & ~PRE_RELEASE).astype(flags.dtype)
+    changes = {}
+    if how == "shared x" and (ref_how == "release" or ref_how.startswith("sync_frame")):
+        changes["release_note"] = (f"carried over from the {ref} view ({ref_how}) through "
+                                   "the shared X")
+    elif how.startswith("sync_frame"):
+        changes["release_note"] = f"t = 0 at {how} (given in the scene)"
+    if changes:
+        after = np.flatnonzero(t >= t0 - 0.2 * step)
+        changes["release_frame"] = int(d["frame"].iloc[after[0]]) if after.size else None
+        changes["release_t_s"] = float(t0)
+    if not changes and np.array_equal(new_flags, flags):
+        return track
+    data = d.copy()
+    data["flags"] = new_flags
+    return replace(track, data=data, **changes)
 
 
 def _world_rows(tracks, world, t0, ref, names, steps):
@@ -298,10 +345,12 @@ def _world_rows(tracks, world, t0, ref, names, steps):
             continue
         wv = world[v]
         tv = wv["t_s"].to_numpy() - t0[v]
+        post = tv >= -1e-9 * max(1.0, abs(t0[v]))      # never a point from before t = 0
         for a in _AXES:
             if f"{a}_m" not in wv:
                 continue
-            vals = _interp_gapless(t_rows, tv, wv[f"{a}_m"].to_numpy(), 2.5 * steps[v])
+            vals = _interp_gapless(t_rows, tv[post], wv[f"{a}_m"].to_numpy()[post],
+                                   2.5 * steps[v])
             missing = ~np.isfinite(cols[a])
             cols[a][missing] = vals[missing]
     data = pd.DataFrame({"t_s": t_rows, "x_m": cols["x"], "y_m": cols["y"], "z_m": cols["z"]})

@@ -24,7 +24,10 @@ How it works (details in ``docs/tracker.md``):
    background), area, orientation and length from second moments
    (:mod:`vidtrack._segment`).
 5. **Afterwards** (:mod:`vidtrack._refine`): points off the smooth path are flagged,
-   the release (first frame of free flight) is found, short gaps are bridged.
+   the release (first frame of free flight) is found where the path's strong
+   acceleration on the rotor ends (not in the ``top`` view, which sees the rotor's plane
+   edge-on: there :func:`vidtrack.stereo.merge_tracks` carries the release over from the
+   ``front`` view), short gaps are bridged.
 
 Flags (bit field, column ``flags``; a frame is usable for fitting only when it is 0):
 
@@ -100,13 +103,15 @@ class Track:
         ``"front"``, ``"top"`` or None.
     release_frame : int or None
         File frame index of the first frame of free flight; None when the release is
-        not in view.
+        not identifiable in this view (always so in the ``top`` view as tracked; the
+        merged track of :attr:`vidtrack.stereo.WorldTrack.tracks` has it).
     release_note : str
         How the release was decided.
     release_t_s : float or None
         The release instant in the source's clock (s): between frames, from where the
-        path's acceleration jumps; the release frame's time when the straw was first
-        seen already flying; None when the release is not in view.
+        path's acceleration drops; the release frame's time when the straw was first
+        seen already flying; in a merged track, the view's t = 0; None when the release
+        is not identifiable.
     fps : float or None
         The source's capture rate.
     frame_shape : tuple of int
@@ -214,6 +219,32 @@ class _Follow:
             self.widths.append(blob.width)
 
 
+_TOP_RELEASE_NOTE = ("not looked for in the top view: it sees the rotor's plane edge-on, "
+                     "where the ride on the blade barely differs from free flight; the "
+                     "merge carries t = 0 over from the front view through the shared X")
+
+
+def _release_evidence(u, flags, *, clear_run=10):
+    """Frames whose centroid may serve to find the release.
+
+    Measured frames not at the border, not bridged and not outliers. Frames merged with
+    another moving object count while the straw may still be on or near the rotor: up
+    to the first run of ``clear_run`` consecutive clean frames (riding the tooth the
+    straw is often merged with it, and it may be clear of it for a few frames before
+    the release); later merged frames (another straw crossing) do not.
+    """
+    ok = np.isfinite(u) & ((flags & (BORDER | LOST | PREDICTED | OUTLIER)) == 0)
+    clean = (flags == 0) & np.isfinite(u)
+    run = 0
+    for i, c in enumerate(clean):
+        run = run + 1 if c else 0
+        if run >= clear_run:
+            later = np.arange(u.size) > i
+            ok &= ~(later & ((flags & MERGED) > 0))
+            break
+    return ok
+
+
 def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
           max_gap=5, blade_region=None, centre_line_px=None, warmup_frames=None,
           quiet=True):
@@ -228,7 +259,11 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
         over the whole footage). Default: the median of up to 25 frames spread over the
         first ``warmup_frames`` frames, which the pass holds and then tracks.
     view : str, optional
-        The view's name, used in messages and the result.
+        The view's name, used in messages and the result. In the ``"top"`` view the
+        release is not looked for (``release_frame`` None, the note says why): it sees
+        the rotor's plane edge-on, where the ride on the blade barely differs from free
+        flight; :func:`vidtrack.stereo.merge_tracks` carries the release over from the
+        ``front`` view through the shared X.
     k_sigma : float, optional
         Segmentation threshold in multiples of the measured noise (default 5).
     min_area_px : int, optional
@@ -574,14 +609,11 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
     pos = np.column_stack([u, v])
     scatter = _refine.flag_outliers(tau, pos, flags, clean_mask=flags == 0,
                                     outlier_flag=OUTLIER)
-    usable = np.isfinite(u) & ((flags & (BORDER | LOST | PREDICTED | OUTLIER)) == 0)
-    first_clean = np.flatnonzero(flags == 0)
-    if first_clean.size:
-        # merged frames count only while the straw rides the blade, before it is clear
-        usable &= ~((np.arange(n) > first_clean[0]) & ((flags & MERGED) > 0))
-    latest = float(tau[first_clean[0]]) + 2.0 if first_clean.size else None
-    rel, rel_tau, rel_note = _refine.find_release(tau, pos, usable, latest=latest,
-                                                  first_in_open=not first_border)
+    if view == "top":
+        rel, rel_tau, rel_note = None, None, _TOP_RELEASE_NOTE
+    else:
+        rel, rel_tau, rel_note = _refine.find_release(
+            tau, pos, _release_evidence(u, flags), first_in_open=not first_border)
     if rel is not None:
         before = (np.arange(n) < rel) & np.isfinite(u)
         flags[before] |= PRE_RELEASE
