@@ -121,6 +121,8 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages):
     mappings = {n: v.mapping() for n, v in scene.views.items()}
     world = merge_tracks(tracks, mappings,
                          sync={n: v.sync_frame for n, v in scene.views.items()})
+    # the merge flags each view's frames before its t = 0 and carries the release over
+    tracks = world.tracks or tracks
     timings["merge"] = time.perf_counter() - t0
     write_tracks(h5, tracks, world, scene_hash=scene.hash,
                  calibration={n: v.to_dict() for n, v in scene.views.items()})
