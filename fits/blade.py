@@ -392,7 +392,7 @@ def slide_ode(t, setting, *, method="DOP853", rtol=1e-12, atol=1e-15):
     d1 = setting.delta1_rad
 
     def rhs(tt, y):
-        l, v = y
+        l, v = y  # noqa: E741 (l is the paper's slide coordinate, eq. 1)
         beta = a0 + w * tt - d1
         # eq. 1: m l'' = m rho w^2 cos(delta) + m g cos(beta) - mu m g sin(beta)
         #                - mu (2 m w l' - m rho w^2 sin(delta))

@@ -173,7 +173,7 @@ def _solve(problem, t, obs, starts):
                      problem.upper * (1 - 1e-9))
         scale = np.maximum(np.abs(p0), 1e-3)
 
-        def resid(q):
+        def resid(q, scale=scale):
             return problem.fun(t, q * scale) - obs
 
         try:

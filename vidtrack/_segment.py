@@ -473,7 +473,7 @@ def measure(work, blob, level, *, width=None, length=None):
     others = work.others
     support = cv2.dilate(work.sel, _K3)
     support[others] = 0
-    b, d, t, den = work.b, work.d, work.t, work.den
+    d, t, den = work.d, work.t, work.den
     readable = np.abs(den) > np.float32(READABLE) * t
     c = np.zeros_like(d)
     np.divide(d, den, out=c, where=readable)

@@ -201,7 +201,7 @@ class Acquirer:
                     pairs.append((dist, i, j))
         pairs.sort()
         taken_tr = set()
-        for dist, i, j in pairs:
+        for _dist, i, j in pairs:
             if i in taken_tr or j in used:
                 continue
             live[i].add(t, blobs[j])

@@ -400,7 +400,7 @@ def _matched_blade_rate(state):
 def _make_throws(spec):
     rng = np.random.default_rng([spec.seed, 7])
     out = []
-    for i in range(spec.throws):
+    for _ in range(spec.throws):
         state = np.asarray(spec.state, dtype=np.float64)
         k = np.asarray(spec.k, dtype=np.float64)
         if spec.throws > 1 and spec.throw_spread > 0:

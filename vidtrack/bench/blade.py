@@ -141,13 +141,14 @@ def run_blade_bench(*, cases=CASES, budget_s=0.1):
         truth = _exact_mp(t, s)
         truth_t0 = float(_exact_mp([t0], s)[0])
         for method, fn in METHODS:
-            sec, l = median_time(lambda fn=fn: fn(t, s), budget_s=budget_s, max_repeats=25)
-            err = np.abs(np.asarray(l) - truth)
+            sec, slide = median_time(lambda fn=fn, t=t, s=s: fn(t, s), budget_s=budget_s,
+                                     max_repeats=25)
+            err = np.abs(np.asarray(slide) - truth)
             at_release = abs(float(np.asarray(fn(np.array([0.0, t0]), s))[-1]) - truth_t0)
             if hasattr(fn, "ode"):
                 t_rel = _ode_release_time(s, *fn.ode)
             else:
-                t_rel = _root(lambda tt, fn=fn: np.asarray(fn(tt, s)), s.tip_m, 2.0 * t0)
+                t_rel = _root(lambda tt, fn=fn, s=s: np.asarray(fn(tt, s)), s.tip_m, 2.0 * t0)
             rows.append({"case": name, "method": method,
                          "max_error_m": float(np.max(err)),
                          "error_at_release_m": at_release,
