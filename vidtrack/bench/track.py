@@ -224,6 +224,13 @@ def run_track_bench(out_dir, *, quick=False):
     pandas.DataFrame
         One row per method (columns in the module notes).
     """
+    import importlib.util
+
+    from vidtrack.errors import VidtrackError
+
+    if importlib.util.find_spec("trackpy") is None:
+        raise VidtrackError("vidtrack bench track compares against trackpy, which is not "
+                            "installed: pip install 'vidtrack[bench]'")
     cfg = QUICK if quick else FULL
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
