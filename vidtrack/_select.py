@@ -9,7 +9,8 @@ two small dot products.
 starts a tentative tracklet; a tracklet that is seen in ``confirm`` consecutive frames,
 moves, and moves steadily (its last point where its earlier points said) is a
 candidate. A static blob (a ghost in the background, a machine part that shifted) never
-qualifies; nor does a flickering one. Blobs brighter and darker than the background are
+qualifies; nor does a flickering one; nor, while a larger one is steady too, a tiny one
+(a few noise pixels by the rotor). Blobs brighter and darker than the background are
 kept apart (a bright straw riding a dark blade is its own blob). Among candidates the
 one nearest the stream's centre line wins when a centre line is given, else the
 fastest: the straw leaves the tip of the blade at the tip's speed, faster than the
@@ -160,10 +161,14 @@ class Acquirer:
         Least mean motion (px/frame) that counts as moving.
     centre_line : ((u0, v0), (u1, v1)) or None
         The stream's centre line in pixels.
+    tiny_px : int
+        A candidate with a blob of fewer pixels than this is dropped while one without
+        is steady too.
     """
 
-    def __init__(self, *, confirm, max_step, min_motion, centre_line=None):
+    def __init__(self, *, confirm, max_step, min_motion, centre_line=None, tiny_px=0):
         self.confirm = confirm
+        self.tiny_px = tiny_px
         self.max_step = max_step
         self.min_motion = min_motion
         self.centre_line = centre_line
@@ -214,6 +219,11 @@ class Acquirer:
                  and (accept is None or accept(tr))]
         if not ready:
             return None
+        # a few noise pixels by the rotor can drift steadily for 3 frames: while a
+        # candidate of some size is steady too, a tiny one is not the straw
+        sizes = [min(b.mask_area for b in tr.blobs[-self.confirm:]) for tr in ready]
+        if max(sizes) >= self.tiny_px:
+            ready = [tr for tr, s in zip(ready, sizes) if s >= self.tiny_px]
         if self.centre_line is not None:
             return min(ready, key=lambda tr: line_distance(tr.points[-1][1], tr.points[-1][2],
                                                            self.centre_line))

@@ -204,6 +204,11 @@ class _Follow:
         self.pred = Predictor()
         self.intruders = Intruders()
         self.gap = 0
+        # (mask area, length) of the last frame followed, and whether every step since
+        # the last clean frame was small: a straw turning out of an end-on view grows
+        # smoothly from frame to frame, a merge jumps
+        self.last_size = None
+        self.smooth = True
 
     @property
     def level(self):
@@ -212,7 +217,33 @@ class _Follow:
     def ref(self, q, default):
         return float(statistics.median(q)) if q else default
 
+    def _small_step(self, a1, l1, *, step=1.25, slack_px=12.0):
+        a0, l0 = self.last_size
+        if a1 > step * a0 + slack_px:
+            return False
+        max_dl = 1.0 + 0.15 * max(self.lengths) if self.lengths else np.inf
+        return not (np.isfinite(l0) and np.isfinite(l1) and l1 - l0 > max_dl)
+
+    def smooth_growth(self, blob):
+        """The blob's size reached from the last clean frame in small steps only.
+
+        From frame to frame since the last clean frame, this one included, the mask
+        area grows by at most 1.25 times plus 12 px (the edge pixels of a straw seen
+        end-on come and go with the noise), and the length by at most 1 px plus 0.15 of
+        the longest reference length: the straw turning, not another blob joining.
+        """
+        return (self.last_size is not None and self.smooth
+                and self._small_step(blob.mask_area, blob.length))
+
+    def seen(self, blob):
+        """Record the size of a followed frame that was not clean."""
+        if self.last_size is not None:
+            self.smooth = self.smooth and self._small_step(blob.mask_area, blob.length)
+            self.last_size = (blob.mask_area, blob.length)
+
     def add(self, blob):
+        self.last_size = (blob.mask_area, blob.length)
+        self.smooth = True
         self.areas.append(blob.mask_area)
         if np.isfinite(blob.length):
             self.lengths.append(blob.length)
@@ -351,13 +382,13 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
     clean = np.zeros(n, bool)
     first_border = None
 
+    min_area = max(1, int(min_area_px))
     acq = Acquirer(confirm=3, max_step=0.25 * max(rows, cols), min_motion=0.3,
-                   centre_line=centre_line_px)
+                   centre_line=centre_line_px, tiny_px=3 * min_area)
     fol = None
     lost_state = None        # (Predictor, tau) of the straw when it was lost
     last_level = [float("nan")]
     moving_frames = 0
-    min_area = max(1, int(min_area_px))
 
     def store(i, blob, extra=0):
         nonlocal first_border
@@ -541,7 +572,10 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
         if ref_area is not None and len(f.areas) >= 3 and (
                 b.mask_area > 1.6 * ref_area or b.mask_area > 1.4 * f.areas[-1]
                 or b.length - f.lengths[-1] > 0.3 * max(f.lengths)):
-            same = True
+            # grown since the last clean frame: a merge, unless it grew smoothly (the
+            # straw turning out of an end-on view; the reference would otherwise stay
+            # at the small size and flag the rest of the flight)
+            same = not f.smooth_growth(b)
         x0, y0, x1, y1 = b.bbox
         others = [o for o in blobs if o.label not in group]
         for o in others:
@@ -556,6 +590,8 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
         if f.intruders.near(tau[i], p[0], p[1], ref_len):
             same = True
         fl = store(i, b, fl | (MERGED if same else 0))
+        if same or (fl & BORDER):
+            f.seen(b)
         if not same and not (fl & BORDER):
             f.errors.append(float(np.hypot(b.u - p[0], b.v - p[1])))
             f.pred.add(tau[i], b.u, b.v)
