@@ -9,6 +9,8 @@ from vidtrack import __version__
 
 SCHEMA = 1
 K_NAMES = ("k1", "k2", "k3", "k4")
+#: fit.json "model" for each fits.throw model
+MODEL_NAMES = {"quadratic": "quadratic-drag", "linear": "linear-drag", "free": "drag-free"}
 
 
 def _num(v):
@@ -37,8 +39,7 @@ def throw_record(scene, fit, *, timings_s, world_points=None, extra=None):
     record = {
         "schema": SCHEMA,
         "run": scene.run_name,
-        "model": "quadratic-drag" if fit.model == "quadratic" else f"{fit.model}-drag"
-        if fit.model == "linear" else "drag-free",
+        "model": MODEL_NAMES[fit.model],
         "cp_s_per_m": _num(fit.cp_s_per_m),
         "factors": dict(scene.factors),
         "coefficients": d["coefficients"],
