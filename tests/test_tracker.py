@@ -192,7 +192,10 @@ def test_sample_run_settings_keep_the_flight_usable(tmp_path, seed, view):
     ok = tr.usable
     assert ok.sum() > 0.8 * flight.sum()
     err = centroid_errors(tr, per_frame)
-    assert np.sqrt(np.mean(err[ok] ** 2)) < 0.25
+    # MJPG quality 40 rings round the straw's edges; the coverage keeps the ring's
+    # negative half (COVERAGE_RANGE), which halves the centroid error (0.03-0.045 px
+    # RMS when it was cut off at 0)
+    assert np.sqrt(np.mean(err[ok] ** 2)) < 0.028
 
 
 def test_leaving_the_frame_is_flagged_border_then_lost():

@@ -14,11 +14,11 @@ Internal to :mod:`vidtrack.tracker`. Two ways to look at a frame:
 :func:`measure` turns the straw's blob into its centroid, area, orientation and length
 from its **coverage** of each pixel: a pixel that the opaque straw covers by a fraction
 c shows ``f = b + c (s - b)`` (b the background, s the straw's grey level), so
-``c = (f - b) / (s - b)`` clipped to [0, 1]. Weighting by c instead of by ``|f - b|``
-keeps the centroid unbiased over a textured background, where ``|s - b|`` changes from
-pixel to pixel. Where ``|s - b|`` is within the noise the coverage cannot be read off
-the pixel; inside the straw's rod (its axis and width from the readable part) such a
-pixel gets the rod's coverage (:func:`_band_fill`).
+``c = (f - b) / (s - b)``, not clipped to [0, 1] (:data:`COVERAGE_RANGE`). Weighting
+by c instead of by ``|f - b|`` keeps the centroid unbiased over a textured background,
+where ``|s - b|`` changes from pixel to pixel. Where ``|s - b|`` is within the noise
+the coverage cannot be read off the pixel; inside the straw's rod (its axis and width
+from the readable part) such a pixel gets the rod's coverage (:func:`_band_fill`).
 """
 
 import math
@@ -35,6 +35,14 @@ _K5 = np.ones((5, 5), np.uint8)
 #: of the detection threshold (3 sigma at k = 5): the coverage's noise is then at most a
 #: third of the straw's full contrast.
 READABLE = 0.6
+
+#: Coverage read off a pixel is kept within this range. Not [0, 1]: noise and the
+#: ringing of compression round the straw's edges are as often below the background as
+#: above it, and cutting off the negative half biases the centroid towards wherever the
+#: ringing is strong (measured on MJPG quality 40 footage of the sample run's settings:
+#: 0.030 px RMS centroid error with [0, 1], 0.015 px without the cut; on lossless footage
+#: both are below 0.01 px). The wide range only stops gross values.
+COVERAGE_RANGE = (-1.0, 2.0)
 
 #: Brightness changes (relative) below this are taken as no flicker.
 _GAIN_TOL = 0.01
@@ -477,7 +485,7 @@ def measure(work, blob, level, *, width=None, length=None):
     readable = np.abs(den) > np.float32(READABLE) * t
     c = np.zeros_like(d)
     np.divide(d, den, out=c, where=readable)
-    np.clip(c, 0.0, 1.0, out=c)
+    np.clip(c, *COVERAGE_RANGE, out=c)
     sup = support.view(bool)
     unread = sup & ~readable
     if unread.any():
