@@ -9,10 +9,10 @@ Each axis is its own ODE (``fits.throw``), so each is fitted on its own:
 Bounded nonlinear least squares (``scipy.optimize.least_squares``, trust region
 reflective) in scaled variables, from several robust starting values (polynomial fits
 of the track). Standard errors and 95 % intervals come from the Jacobian at the solution
-(an SVD, never an explicit inverse), widened by the AR(1) factor of the residuals
-lag-1 autocorrelation (tracking errors are smooth, not white); a residual bootstrap is
-an option. What the track
-cannot determine is reported as not determined with the reason, never as a number:
+under an error model fitted to the residuals: white noise plus an exponentially
+correlated part, by REML (:mod:`fits.errmodel`; tracking errors persist over many
+frames); a residual bootstrap is an option. What the track cannot determine is
+reported as not determined with the reason, never as a number:
 no descent in view (k2), no ascent (k1), no top view (k4), too few points, cp = 0 (k3
 and k4 have no effect), an interval that includes 0.
 """
@@ -20,8 +20,9 @@ and k4 have no effect), an interval that includes 0.
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize, special
 
+from fits.errmodel import ErrorModel, fit_error_model
 from fits.errors import ConvergenceError, InputError
 from fits.throw import G_STANDARD, MODELS, flight_drag, flight_y
 
@@ -74,6 +75,7 @@ class AxisFit:
     rss: float
     ci95: np.ndarray
     autocorrelation: float = 0.0
+    error_model: ErrorModel | None = None
     notes: tuple = ()
 
     def value(self, name):
@@ -85,6 +87,7 @@ class AxisFit:
                 "correlation": self.correlation.tolist(), "residual_rms_m": self.residual_rms_m,
                 "points": self.n_points, "condition_number": self.condition_number,
                 "residual_autocorrelation": self.autocorrelation,
+                "error_model": self.error_model.to_dict() if self.error_model else None,
                 "nfev": self.nfev, "notes": list(self.notes)}
 
 
@@ -136,6 +139,8 @@ class ThrowFit:
                                      for a, f in self.axes.items()},
                 "residual_autocorrelation": {a: (f.autocorrelation if f else None)
                                              for a, f in self.axes.items()},
+                "error_model": {a: (f.error_model.to_dict() if f and f.error_model else None)
+                                for a, f in self.axes.items()},
                 "aic": self.aic()}
 
 
@@ -219,11 +224,12 @@ def _lag1_autocorrelation(t, r):
 
 
 def _statistics(problem, t, obs, res, scale):
-    """Covariance from the SVD of the scaled Jacobian; errors, intervals, conditioning.
+    """Covariance under the fitted error model; errors, intervals, conditioning.
 
-    Tracking errors are smooth over frames, not white: the covariance is inflated by
-    (1 + rho) / (1 - rho), rho the residuals' lag-1 autocorrelation (the AR(1) variance
-    factor; 1 for white residuals), so the intervals stay honest on real footage.
+    Tracking errors are not white: the covariance is the least-squares sandwich under
+    white plus exponentially correlated errors fitted by REML (:mod:`fits.errmodel`),
+    so the intervals stay honest on real footage. The lag-1 autocorrelation of the
+    residuals is kept as a diagnostic.
     """
     p = res.x * scale
     r = problem.fun(t, p) - obs
@@ -231,25 +237,23 @@ def _statistics(problem, t, obs, res, scale):
     dof = n - k
     rss = float(r @ r)
     jac = _jacobian(problem.fun, t, p, scale)
-    _, s, vt = np.linalg.svd(jac, full_matrices=False)
+    s = np.linalg.svd(jac, compute_uv=False)
     cond = float(s[0] / s[-1]) if s[-1] > 0 else np.inf
-    s2 = rss / dof if dof > 0 else np.nan
-    with np.errstate(divide="ignore"):
-        inv_s2 = np.where(s > s[0] * 1e-13, 1.0 / s**2, np.inf)
-    cov_q = (vt.T * inv_s2) @ vt * s2 if np.all(np.isfinite(inv_s2)) else \
-        np.full((k, k), np.inf)
-    rho = _lag1_autocorrelation(t, r)
-    cov = cov_q * np.outer(scale, scale) * ((1 + rho) / (1 - rho))
+    if dof > 0 and s[-1] > s[0] * 1e-13:
+        cov_q, err_model = fit_error_model(t, jac, r)
+    else:
+        cov_q, err_model = np.full((k, k), np.inf), None
+    cov = cov_q * np.outer(scale, scale)
     se = np.sqrt(np.abs(np.diag(cov)))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(se, se)
-    tq = stats.t.ppf(0.975, dof) if dof > 0 else np.inf
+    tq = special.stdtrit(dof, 0.975) if dof > 0 else np.inf
     ci = np.column_stack([p - tq * se, p + tq * se])
     return AxisFit(axis=problem.axis, names=problem.names, values=p, stderr=se,
                    covariance=cov, correlation=corr,
                    residual_rms_m=float(np.sqrt(rss / n)), n_points=n, dof=dof,
                    condition_number=cond, nfev=int(res.nfev), rss=rss, ci95=ci,
-                   autocorrelation=rho)
+                   autocorrelation=_lag1_autocorrelation(t, r), error_model=err_model)
 
 
 def _bootstrap(problem, t, obs, fit, n_boot, rng):

@@ -1,0 +1,167 @@
+"""The error model of a fitted track: white noise plus a correlated part, by REML.
+
+Tracking errors are not white. Part of them is the sensor's noise, independent frame to
+frame; part persists over many frames: compression artefacts and the coverage of a
+spinning straw's edges change only as the straw moves across the pixel grid. A
+parameter's error then depends on how the errors are correlated at *all* lags, and the
+slow part hides in the residuals, because the fit absorbs whatever of it looks like a
+change of the parameters. The AR(1) factor of the residuals' lag-1 autocorrelation
+misses it: on footage at the sample run's settings (MJPG quality 40) the intervals of
+k1 and k2 covered the truth in 68 % and 75 % of 40 seeded runs instead of 95 %.
+
+Here the errors are modelled as
+
+    cov(e_i, e_j) = s2 * ((1 - f) * [i == j] + f * exp(-|t_i - t_j| / ell))
+
+(white noise plus an exponentially correlated part: f is the correlated fraction of
+the variance, ell its correlation time), and (s2, f, ell) are estimated by restricted
+maximum likelihood (REML) from the residuals and the fit's Jacobian. REML counts the
+degrees of freedom the fitted parameters take away, so a slow error the fit has partly
+absorbed is still seen. The parameters' covariance is then the sandwich
+``(J'J)^-1 J' V J (J'J)^-1`` of the least-squares estimates under that error model.
+
+s2 is profiled out; for each correlation time on a log grid the correlation matrix is
+diagonalised once, and the profile REML over f is a one-dimensional bounded search in
+that basis (O(n p) per step). Long tracks are averaged in consecutive bins of at most
+:data:`MAX_POINTS` points first (the Jacobian barely changes within a bin), which keeps
+the cost bounded.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize
+
+#: Tracks longer than this are averaged in consecutive bins before the error model.
+MAX_POINTS = 400
+#: Correlation times tried, as multiples of the median time step and of the duration.
+_ELL_STEPS = (0.5, 30.0)
+_ELL_GRID = 14
+
+
+@dataclass(frozen=True)
+class ErrorModel:
+    """White plus exponentially correlated errors fitted to a track's residuals.
+
+    Attributes
+    ----------
+    variance : float
+        Total error variance s2 (units of the track squared).
+    correlated_fraction : float
+        f: the part of the variance that is correlated.
+    correlation_time : float
+        ell, in the units of the times (s).
+    points : int
+        Points used (after binning).
+    bin_size : int
+        Consecutive points averaged into one (1: none); ``variance`` is then that of
+        the bin means.
+    """
+
+    variance: float
+    correlated_fraction: float
+    correlation_time: float
+    points: int
+    bin_size: int = 1
+
+    def to_dict(self):
+        return {"variance": self.variance, "correlated_fraction": self.correlated_fraction,
+                "correlation_time_s": self.correlation_time}
+
+
+def _bin(t, jac, r, max_points):
+    """Consecutive-bin means of ``t``, ``jac`` rows and ``r``; and the bin size."""
+    n = t.size
+    m = int(np.ceil(n / max_points))
+    if m <= 1:
+        return t, jac, r, 1
+    nb = n // m
+    cut = nb * m
+
+    def means(a):
+        return a[:cut].reshape(nb, m, *a.shape[1:]).mean(axis=1)
+    return means(t), means(jac), means(r), m
+
+
+def _profile(jq, rq, lam, n, p):
+    """Profile REML over f in the eigenbasis of the correlation matrix (eigenvalues lam)."""
+    def nll(f):
+        d = (1.0 - f) + f * lam
+        if np.any(d <= 0):
+            return np.inf
+        w = 1.0 / d
+        a = jq.T @ (w[:, None] * jq)
+        b = jq.T @ (w * rq)
+        try:
+            c = np.linalg.cholesky(a)
+        except np.linalg.LinAlgError:
+            return np.inf
+        z = np.linalg.solve(c, b)
+        q = float(rq @ (w * rq) - z @ z)
+        if not q > 0:
+            return np.inf
+        return 0.5 * ((n - p) * np.log(q / (n - p)) + np.sum(np.log(d))
+                      + 2.0 * np.sum(np.log(np.diag(c))))
+    res = optimize.minimize_scalar(nll, bounds=(0.0, 0.999), method="bounded",
+                                   options={"xatol": 1e-3})
+    f = float(res.x)
+    # the bounded search never evaluates the end point: white noise must be able to win
+    best = (nll(0.0), 0.0)
+    return min(best, (float(res.fun), f))
+
+
+def fit_error_model(t, jac, r, *, max_points=MAX_POINTS):
+    """REML estimate of the error model and the least-squares parameters' covariance.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Times of the points (any order).
+    jac : numpy.ndarray
+        ``(n, p)`` Jacobian of the fitted positions with respect to the parameters.
+    r : numpy.ndarray
+        Residuals (fitted minus measured).
+    max_points : int
+        Bin longer tracks down to about this many points.
+
+    Returns
+    -------
+    (numpy.ndarray, ErrorModel)
+        The ``(p, p)`` covariance of the least-squares parameters (in ``jac``'s units)
+        under the fitted error model, and the model. With fewer than ``p + 3`` points
+        the errors are taken as white.
+    """
+    order = np.argsort(t, kind="stable")
+    t, jac, r = t[order], jac[order], r[order]
+    n_full, p = jac.shape
+    gram = jac.T @ jac
+    gram_inv = np.linalg.pinv(gram)
+    if n_full < p + 3:
+        s2 = float(r @ r) / max(n_full - p, 1)
+        return gram_inv * s2, ErrorModel(s2, 0.0, 0.0, n_full)
+    tb, jb, rb, m = _bin(t, jac, r, max_points)
+    n = tb.size
+    step = float(np.median(np.diff(tb)))
+    if not step > 0:
+        step = max(float(np.ptp(tb)), 1.0) / n
+    lag = np.abs(tb[:, None] - tb[None, :])
+    ells = np.geomspace(_ELL_STEPS[0] * step, _ELL_STEPS[1] * max(float(np.ptp(tb)), step),
+                        _ELL_GRID)
+    best = None
+    for ell in ells:
+        lam, q = np.linalg.eigh(np.exp(-lag / ell))
+        jq, rq = q.T @ jb, q.T @ rb
+        val, f = _profile(jq, rq, lam, n, p)
+        if best is None or val < best[0]:
+            best = (val, f, ell, lam, q, jq, rq)
+    _, f, ell, lam, q, jq, rq = best
+    d = (1.0 - f) + f * lam
+    w = 1.0 / d
+    a = jq.T @ (w[:, None] * jq)
+    b = jq.T @ (w * rq)
+    s2 = float(rq @ (w * rq) - b @ np.linalg.solve(a, b)) / (n - p)
+    # J' V J of the full track from the binned one: each bin holds m points whose mean
+    # error has the binned model's covariance
+    meat = (m * m) * (jq.T @ ((s2 * d)[:, None] * jq))
+    cov = gram_inv @ meat @ gram_inv
+    return cov, ErrorModel(s2, f, float(ell), n, m)
