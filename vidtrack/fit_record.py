@@ -3,7 +3,7 @@
 import json
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from vidtrack import __version__
 
@@ -82,7 +82,7 @@ def mean_record(scene, records, *, timings_s):
         mean = float(np.mean(values))
         if n >= 2:
             se = float(np.std(values, ddof=1) / np.sqrt(n))
-            half = float(stats.t.ppf(0.975, n - 1) * se)
+            half = float(special.stdtrit(n - 1, 0.975) * se)
             ci = [mean - half, mean + half]
         else:
             se = records[[r["coefficients"][k]["determined"] for r in records].index(True)][

@@ -404,8 +404,8 @@ class CoefficientPrediction:
 def _t95(df):
     if df is None:
         return _Z95
-    from scipy import stats
-    return float(stats.t.ppf(0.975, df))
+    from scipy import special
+    return float(special.stdtrit(df, 0.975))
 
 
 def _design_check(regression, values):
