@@ -9,6 +9,7 @@ A run with ``throws/`` is fitted per throw (outputs in ``<run>/vidtrack/<throw>/
 the run's ``fit.json`` holds the mean over the throws, as Chen et al. 2018 did.
 """
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -35,6 +36,7 @@ class FitOptions:
     force: bool = False
     report: bool = True
     quiet: bool = True
+    threads: int = 0          # views tracked at once (0: as many as views and cores)
 
     def key(self):
         return {"model": self.model, "bootstrap": self.bootstrap,
@@ -83,22 +85,59 @@ def _read_stages(out_dir):
         return {}
 
 
-def _track_views(scene, folder, options, timings):
-    """Track every view of the scene in ``folder``; returns {view: Track}."""
+def _track_view(scene, folder, name, options, cancel=None):
     from vidtrack.frames import open_source
     from vidtrack.tracker import track
 
-    tracks = {}
-    for name in scene.view_names:
-        view = scene.views[name]
-        path = _source_of(view, scene, folder)
-        t0 = time.perf_counter()
-        with open_source(path, fps=view.fps, frames=view.frames) as src:
-            timings["frames"] = timings.get("frames", 0.0) + time.perf_counter() - t0
-            t0 = time.perf_counter()
-            tracks[name] = track(src, view=name, quiet=options.quiet, **TRACKER_SETTINGS)
-        timings["track"] = timings.get("track", 0.0) + time.perf_counter() - t0
-    return tracks
+    view = scene.views[name]
+    with open_source(_source_of(view, scene, folder), fps=view.fps, frames=view.frames) as src:
+        return track(src, view=name, quiet=options.quiet, cancel=cancel, **TRACKER_SETTINGS)
+
+
+def _track_views(scene, folder, options, timings):
+    """Track every view of the scene in ``folder``; returns {view: Track}.
+
+    With two views and ``options.threads`` above 1 the second view is tracked in a
+    thread beside the first: decoding and OpenCV's image operations release the GIL, so
+    the views overlap on two cores. If the first view fails (or Ctrl-C), the thread is
+    cancelled at its next frame and joined before the error goes on.
+    """
+    import threading
+
+    from vidtrack.tracker import Cancelled
+
+    names = list(scene.view_names)
+    t0 = time.perf_counter()
+    tracks, failed = {}, {}
+    threads = options.threads or min(len(names), os.cpu_count() or 1)
+    worker, cancel = None, threading.Event()
+    if threads > 1 and len(names) > 1:
+        other = names.pop()
+
+        def run_other():
+            try:
+                tracks[other] = _track_view(scene, folder, other, options, cancel)
+            except Cancelled:
+                pass
+            except BaseException as exc:       # re-raised in the calling thread
+                failed[other] = exc
+
+        worker = threading.Thread(target=run_other, name=f"track-{other}")
+        worker.start()
+    done = False
+    try:
+        for name in names:
+            tracks[name] = _track_view(scene, folder, name, options)
+        done = True
+    finally:
+        if worker is not None:
+            if not done:                        # the first view failed: stop the other
+                cancel.set()
+            worker.join()
+    for exc in failed.values():
+        raise exc
+    timings["track"] = time.perf_counter() - t0
+    return {n: tracks[n] for n in scene.view_names}
 
 
 def _tracks_stage(scene, folder, out_dir, options, timings, stages):
@@ -256,6 +295,9 @@ def fit_runs(run_dirs, options=FitOptions(), *, jobs=1, scheduler=None, progress
     list of dict
         The fit.json records, in the order of ``run_dirs``.
     """
+    if scheduler or (jobs > 1 and len(run_dirs) > 1):
+        # the runs share the cores: one view at a time within each
+        options = dataclasses.replace(options, threads=1)
     work = [(Path(r), options) for r in run_dirs]
     if scheduler:
         try:

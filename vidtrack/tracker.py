@@ -81,6 +81,10 @@ TRACK_COLUMNS = ("frame", "t_s", "u_px", "v_px", "area_px", "angle_rad", "length
 _WARMUP_BYTES = 96 * 1024 * 1024
 
 
+class Cancelled(Exception):
+    """A tracking pass stopped by its ``cancel`` event."""
+
+
 def describe_flags(value):
     """Names of the bits set in a flags value, e.g. ``describe_flags(12) -> ('merged', 'lost')``."""
     return tuple(name for bit, name in FLAGS.items() if int(value) & bit)
@@ -278,7 +282,7 @@ def _release_evidence(u, flags, *, clear_run=10):
 
 def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
           max_gap=5, blade_region=None, centre_line_px=None, warmup_frames=None,
-          quiet=True):
+          quiet=True, cancel=None):
     """Track the straw through one view's footage.
 
     Parameters
@@ -313,6 +317,9 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
         Frames held for the background (default: as many as fit in 96 MB, 16 to 300).
     quiet : bool, optional
         No progress bar.
+    cancel : threading.Event, optional
+        Checked before each frame: once set, the pass stops with :class:`Cancelled`
+        (another view failed or the user pressed Ctrl-C).
 
     Returns
     -------
@@ -607,7 +614,14 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
             yield buffer.popleft()
         yield from frames
 
-    for i, frame in enumerate(progress(stream(), total=n, desc=f"track {view or ''}".strip(),
+    def checked(items):
+        for item in items:
+            if cancel.is_set():
+                raise Cancelled(f"tracking of {_name(view, source)} cancelled")
+            yield item
+
+    for i, frame in enumerate(progress(stream() if cancel is None else checked(stream()),
+                                       total=n, desc=f"track {view or ''}".strip(),
                                        quiet=quiet, unit="frame")):
         if fol is not None:
             if follow(i, frame, fol):
