@@ -63,7 +63,10 @@ def _track_plot(views):
         ax.set_xlabel("frame")
         ax.set_ylabel("pixels")
         ax.legend(fontsize=8)
-    fig.tight_layout()
+    h = 3.2 * max(len(views), 1)
+    # fixed margins: tight_layout draws the figure once more only to place the labels
+    fig.subplots_adjust(left=0.07, right=0.99, top=1 - 0.3 / h, bottom=0.5 / h,
+                        hspace=1.0 / 3.2)
     return fig
 
 
@@ -91,7 +94,8 @@ def _fit_plot(world, fit):
         bottom.set_ylabel("residual (mm)")
         bottom.set_xlabel("t (s)")
         top.legend(fontsize=8)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.07, right=0.99, top=0.95, bottom=0.08, wspace=0.32,
+                        hspace=0.12)
     return fig
 
 
