@@ -20,11 +20,11 @@ degrees of freedom the fitted parameters take away, so a slow error the fit has 
 absorbed is still seen. The parameters' covariance is then the sandwich
 ``(J'J)^-1 J' V J (J'J)^-1`` of the least-squares estimates under that error model.
 
-s2 is profiled out; for each correlation time on a log grid the correlation matrix is
-diagonalised once, and the profile REML over f is a one-dimensional bounded search in
-that basis (O(n p) per step). Long tracks are averaged in consecutive bins of at most
-:data:`MAX_POINTS` points first (the Jacobian barely changes within a bin), which keeps
-the cost bounded.
+s2 is profiled out; for each correlation time (a coarse log grid, refined twice round
+its best point) the correlation matrix is diagonalised once, and the profile REML over
+f is a one-dimensional bounded search in that basis (O(n p) per step). Long tracks are
+averaged in consecutive bins of at most :data:`MAX_POINTS` points first (the Jacobian
+barely changes within a bin), which keeps the cost bounded.
 """
 
 from dataclasses import dataclass
@@ -36,7 +36,7 @@ from scipy import optimize
 MAX_POINTS = 400
 #: Correlation times tried, as multiples of the median time step and of the duration.
 _ELL_STEPS = (0.5, 30.0)
-_ELL_GRID = 14
+_ELL_GRID = 7
 
 
 @dataclass(frozen=True)
@@ -147,13 +147,27 @@ def fit_error_model(t, jac, r, *, max_points=MAX_POINTS):
     lag = np.abs(tb[:, None] - tb[None, :])
     ells = np.geomspace(_ELL_STEPS[0] * step, _ELL_STEPS[1] * max(float(np.ptp(tb)), step),
                         _ELL_GRID)
-    best = None
+    cache = {}
+
+    def profile(ell):
+        if ell not in cache:
+            lam, q = np.linalg.eigh(np.exp(-lag / ell))
+            jq, rq = q.T @ jb, q.T @ rb
+            val, f = _profile(jq, rq, lam, n, p)
+            cache[ell] = (val, f, ell, lam, q, jq, rq)
+        return cache[ell]
+
+    # a coarse log grid, then halving the log step twice round the best point
     for ell in ells:
-        lam, q = np.linalg.eigh(np.exp(-lag / ell))
-        jq, rq = q.T @ jb, q.T @ rb
-        val, f = _profile(jq, rq, lam, n, p)
-        if best is None or val < best[0]:
-            best = (val, f, ell, lam, q, jq, rq)
+        profile(ell)
+    ratio = ells[1] / ells[0]
+    for _ in range(2):
+        ratio = np.sqrt(ratio)
+        centre = min(cache.values(), key=lambda c: c[0])[2]
+        for ell in (centre / ratio, centre * ratio):
+            if ells[0] <= ell <= ells[-1]:
+                profile(ell)
+    best = min(cache.values(), key=lambda c: c[0])
     _, f, ell, lam, q, jq, rq = best
     d = (1.0 - f) + f * lam
     w = 1.0 / d
