@@ -33,7 +33,7 @@ import numpy as np
 from scipy import optimize
 
 #: Tracks longer than this are averaged in consecutive bins before the error model.
-MAX_POINTS = 400
+MAX_POINTS = 200
 #: Correlation times tried, as multiples of the median time step and of the duration.
 _ELL_STEPS = (0.5, 30.0)
 _ELL_GRID = 7
@@ -54,8 +54,9 @@ class ErrorModel:
     points : int
         Points used (after binning).
     bin_size : int
-        Consecutive points averaged into one (1: none); ``variance`` is then that of
-        the bin means.
+        Consecutive points averaged into one (1: none); ``variance`` and
+        ``correlated_fraction`` are then those of the bin means (averaging thins the
+        white part, so f comes out larger than on single points).
     """
 
     variance: float

@@ -7,6 +7,10 @@ from pathlib import Path
 
 import pytest
 
+# as the CLI does (vidtrack/cli/__init__.py): one BLAS thread, before numpy loads
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
 

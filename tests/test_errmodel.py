@@ -69,7 +69,7 @@ def test_the_model_recovers_the_correlated_fraction_and_time():
     for _ in range(10):
         e = np.sqrt(1 - f) * rng.standard_normal(n) + np.sqrt(f) * _ou(rng, n, ell)
         beta, *_ = np.linalg.lstsq(jac, e, rcond=None)
-        _, m = fit_error_model(t, jac, jac @ beta - e)
+        _, m = fit_error_model(t, jac, jac @ beta - e, max_points=n)
         fs.append(m.correlated_fraction)
         ells.append(m.correlation_time * 1200.0)
     assert np.median(fs) == pytest.approx(f, abs=0.15)

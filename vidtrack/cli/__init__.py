@@ -10,7 +10,15 @@ Exit codes: 0 success, 2 bad usage or bad input (one line on stderr, no tracebac
 
 import argparse
 import importlib
+import os
 import sys
+
+# One BLAS thread per process, set before numpy loads: vidtrack's matrices are small
+# (hundreds of rows), where BLAS threads gain nothing, and the work is already spread
+# over the cores by view and by run; threaded BLAS spinning on cores that the tracker
+# or other runs hold slowed a fit from 0.4 s to 30 s. A user's own setting wins.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
 #: Subcommands in the order ``vidtrack --help`` lists them (module names in this package).
 COMMANDS = ("fit", "report", "anova", "predict", "synth", "frames", "calibrate", "bench")
