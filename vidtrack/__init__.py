@@ -18,6 +18,14 @@ two (``fits`` for numbers, ``calibration`` for pixels to metres). Modules:
 
 __version__ = "0.1.0"
 
-from vidtrack.errors import VidtrackError  # noqa: E402
-
 __all__ = ["VidtrackError", "__version__"]
+
+
+def __getattr__(name):
+    # lazily: importing the package loads nothing heavy, so that the command line
+    # (vidtrack.cli) can set its environment before numpy loads
+    if name == "VidtrackError":
+        from vidtrack.errors import VidtrackError
+
+        return VidtrackError
+    raise AttributeError(f"module 'vidtrack' has no attribute {name!r}")
