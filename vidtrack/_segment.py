@@ -520,6 +520,12 @@ def measure(work, blob, level, *, width=None, length=None):
     c[~sup] = 0.0
     m = cv2.moments(c, False)
     m00 = m["m00"]
+    if m00 < 0.5 * float(c[c > 0].sum()):
+        # the negative coverage outweighs half the positive: a faint blob in noise,
+        # whose moments are not a rod's; measured on the positive coverage alone
+        np.clip(c, 0.0, None, out=c)
+        m = cv2.moments(c, False)
+        m00 = m["m00"]
     x0, y0 = work.origin
     if not m00 > 0:
         blob.area = 0.0
@@ -530,7 +536,7 @@ def measure(work, blob, level, *, width=None, length=None):
     a, bb, cc = m["mu20"] / m00, m["mu11"] / m00, m["mu02"] / m00
     half = 0.5 * (a + cc)
     rad = np.hypot(0.5 * (a - cc), bb)
-    lam1, lam2 = half + rad, max(half - rad, 0.0)
+    lam1, lam2 = max(half + rad, 0.0), max(half - rad, 0.0)
     blob.length = float(np.sqrt(12.0 * lam1))
     blob.width = float(np.sqrt(12.0 * lam2))
     ang = 0.5 * np.arctan2(2.0 * bb, a - cc)

@@ -388,6 +388,7 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
     flags = np.full(n, LOST, dtype=np.int64)
     clean = np.zeros(n, bool)
     first_border = None
+    first_border_at = [None]  # the frame that set first_border
 
     min_area = max(1, int(min_area_px))
     acq = Acquirer(confirm=3, max_step=0.25 * max(rows, cols), min_motion=0.3,
@@ -412,6 +413,7 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
         clean[i] = fl == 0
         if first_border is None:
             first_border = bool(fl & (BORDER | MERGED | BLADE))
+            first_border_at[0] = i
         return fl
 
     def search_blobs(i, frame, gain, level):
@@ -486,6 +488,7 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
 
     def start_following(tr):
         f = _Follow()
+        f.start = tr.blobs[0].index
         for (t, bu, bv), b in zip(tr.points, tr.blobs):
             fl = store(b.index, b, MERGED if b.merged else 0)
             if np.isfinite(b.level):
@@ -630,9 +633,20 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
             fol.gap += 1
             if fol.gap <= max_gap:
                 continue
-            lost_state = (fol.pred, tau[i])
-            if fol.level is not None:
-                last_level[0] = fol.level
+            if not clean[fol.start:i].any():
+                # never once seen clear of other objects (e.g. a rotor tooth, followed
+                # while it swept past): not the straw. Its frames are dropped and the
+                # straw is looked for anywhere again, at either polarity
+                drop = np.arange(fol.start, i)
+                u[drop] = v[drop] = area[drop] = angle[drop] = length[drop] = np.nan
+                flags[drop] = LOST
+                if first_border_at[0] is not None and first_border_at[0] >= fol.start:
+                    first_border = None
+                    first_border_at[0] = None
+            else:
+                lost_state = (fol.pred, tau[i])
+                if fol.level is not None:
+                    last_level[0] = fol.level
             acq.reset()
             fol = None
         level = None
