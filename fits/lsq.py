@@ -182,10 +182,13 @@ def _solve(problem, t, obs, starts):
             return problem.fun(t, q * scale) - obs
 
         try:
-            res = optimize.least_squares(resid, p0 / scale, method="trf",
-                                         bounds=(problem.lower / scale, problem.upper / scale),
-                                         x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12,
-                                         max_nfev=2000)
+            # a trial step may overflow: its residual is then not finite, which the
+            # solver and the checks below handle; no warning for it
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+                res = optimize.least_squares(
+                    resid, p0 / scale, method="trf",
+                    bounds=(problem.lower / scale, problem.upper / scale), x_scale="jac",
+                    xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=2000)
         except (ValueError, FloatingPointError):
             continue
         if not np.isfinite(res.cost):

@@ -206,3 +206,33 @@ def test_interrupted_fit_leaves_no_partial_file_and_reruns(tmp_path, two_view_ru
     res = run_vidtrack("fit", run, "--json")
     assert res.returncode == 0, res.stderr
     assert json.loads(res.stdout)["coefficients"]["k1"]["determined"]
+
+
+def test_a_fit_that_does_not_converge_says_why_and_leaves_no_fit(vidtrack_cli, tmp_path,
+                                                                 two_view_run):
+    """The stored world track is replaced by one no starting value can fit (positions
+    of 1e300 m: every trial overflows). The tracks stage is reused (its inputs did not
+    change), the fit fails: exit 2, one line naming the axis and the diagnostics, and
+    the earlier fit.json and reports are gone, not left to stand for this fit."""
+    import shutil
+
+    from vidtrack.tracks_io import read_tracks, write_tracks
+
+    run = tmp_path / "nofit"
+    shutil.copytree(two_view_run, run, ignore=shutil.ignore_patterns("vidtrack"))
+    assert fit(vidtrack_cli, run).returncode == 0
+    out = run / "vidtrack"
+    assert (out / "fit.json").exists()
+    tf = read_tracks(out / "tracks.h5")
+    tf.world.data["y_m"] = tf.world.data["y_m"] * 1e300
+    write_tracks(out / "tracks.h5", tf.tracks, tf.world, scene_hash=tf.scene_hash,
+                 calibration=tf.calibration)
+    res = fit(vidtrack_cli, run)
+    assert res.returncode == 2, res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in res.stderr
+    assert "did not converge" in lines[0] and "the y fit" in lines[0]
+    assert "points over t =" in lines[0]
+    for name in ("fit.json", "report.md", "report.html"):
+        assert not (out / name).exists()
+    assert (out / "tracks.h5").exists()

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from vidtrack import __version__
 from vidtrack._atomic import write_text
-from vidtrack.errors import SceneError
+from vidtrack.errors import FitError, SceneError
 
 OUT_DIR = "vidtrack"
 STAGES_FILE = "stages.json"
@@ -186,6 +186,7 @@ def fit_throw_folder(scene, folder, out_dir, options):
     """
     import numpy as np
 
+    from fits.errors import ConvergenceError
     from fits.lsq import fit_throw
     from vidtrack.fit_record import dumps, throw_record
     from vidtrack.run_report import write_run_report
@@ -198,14 +199,25 @@ def fit_throw_folder(scene, folder, out_dir, options):
     tracks_key, tracks, world, reused = _tracks_stage(scene, folder, out_dir, options,
                                                       timings, stages)
     cp = _check_cp(scene, options)
-    fit_key = _digest({"tracks": tracks_key, "fit": options.key(), "cp": cp})
+    # tracks.h5 itself too: a track edited by hand (flags set, points removed) is refitted
+    fit_key = _digest({"tracks": tracks_key, "fit": options.key(), "cp": cp,
+                       "tracks_file": _file_fingerprint(out_dir / "tracks.h5")})
     if (not options.force and stages.get("fit") == fit_key
             and (out_dir / "fit.json").is_file()):
         return json.loads((out_dir / "fit.json").read_text())
     t0 = time.perf_counter()
-    fit = fit_throw(world.data, cp, g=scene.physics.gravity_m_s2, v1=scene.v1_m_s,
-                    model=options.model, bootstrap=options.bootstrap,
-                    rng=np.random.default_rng(options.seed))
+    try:
+        fit = fit_throw(world.data, cp, g=scene.physics.gravity_m_s2, v1=scene.v1_m_s,
+                        model=options.model, bootstrap=options.bootstrap,
+                        rng=np.random.default_rng(options.seed))
+    except ConvergenceError as exc:
+        # no fit.json (nor report) of an earlier fit may stand in for this one
+        for name in ("fit.json", "report.md", "report.html"):
+            (out_dir / name).unlink(missing_ok=True)
+        write_text(out_dir / STAGES_FILE, json.dumps({"tracks": tracks_key}, indent=2) + "\n")
+        raise FitError(f"{folder}: the fit did not converge: {exc}; the tracks are in "
+                       f"{out_dir / 'tracks.h5'} (see the report of a run that fits, and "
+                       "docs/fit-outputs.md)") from exc
     timings["fit"] = time.perf_counter() - t0
     notes = list(world.warnings)
     for name, tr in tracks.items():
