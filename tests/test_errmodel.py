@@ -77,8 +77,10 @@ def test_the_model_recovers_the_correlated_fraction_and_time():
 
 
 def test_long_tracks_are_binned_and_keep_the_spread():
-    """1200 points binned to 200: the covariance still matches the Monte Carlo spread
-    of the slope (within the spread's own sampling error)."""
+    """1200 points binned to 200: the standard error is not below the Monte Carlo
+    spread of the slope. These errors are Markov (exponential), but 200 bins cannot
+    tell that from long memory, so the wider long-memory intervals are used
+    (LONG_MEMORY_SLACK): up to ~1.6 times the true spread, never narrower."""
     rng = np.random.default_rng(4)
     n, reps = 1200, 60
     t = np.arange(n) / 1200.0
@@ -92,7 +94,7 @@ def test_long_tracks_are_binned_and_keep_the_spread():
         ses.append(np.sqrt(cov[1, 1]))
     assert m.bin_size == 6 and m.points == 200
     ratio = np.median(ses) / np.std(slopes)
-    assert 0.75 <= ratio <= 1.3
+    assert 0.85 <= ratio <= 1.8
 
 
 def test_too_few_points_are_taken_as_white():
