@@ -9,18 +9,8 @@ visibly fails.
 import numpy as np
 import pytest
 
+from correlated_noise import ou_series
 from fits.errmodel import ErrorModel, fit_error_model
-
-
-def _ou(rng, n, ell_steps):
-    """Unit-variance exponentially correlated series (exact AR(1) sampling)."""
-    phi = np.exp(-1.0 / ell_steps)
-    e = np.empty(n)
-    e[0] = rng.standard_normal()
-    xi = rng.standard_normal(n) * np.sqrt(1 - phi * phi)
-    for i in range(1, n):
-        e[i] = phi * e[i - 1] + xi[i]
-    return e
 
 
 def _coverage(rng, *, n, reps, f, ell_steps, sigma=1e-3):
@@ -31,7 +21,7 @@ def _coverage(rng, *, n, reps, f, ell_steps, sigma=1e-3):
     hit_model = hit_white = 0
     for _ in range(reps):
         e = sigma * (np.sqrt(1 - f) * rng.standard_normal(n)
-                     + np.sqrt(f) * _ou(rng, n, ell_steps))
+                     + np.sqrt(f) * ou_series(rng, n, ell_steps))
         y = jac @ truth + e
         beta, *_ = np.linalg.lstsq(jac, y, rcond=None)
         r = jac @ beta - y
@@ -67,7 +57,7 @@ def test_the_model_recovers_the_correlated_fraction_and_time():
     jac = np.column_stack([np.ones(n), t])
     fs, ells = [], []
     for _ in range(10):
-        e = np.sqrt(1 - f) * rng.standard_normal(n) + np.sqrt(f) * _ou(rng, n, ell)
+        e = np.sqrt(1 - f) * rng.standard_normal(n) + np.sqrt(f) * ou_series(rng, n, ell)
         beta, *_ = np.linalg.lstsq(jac, e, rcond=None)
         _, m = fit_error_model(t, jac, jac @ beta - e, max_points=n)
         fs.append(m.correlated_fraction)
@@ -87,7 +77,7 @@ def test_long_tracks_are_binned_and_keep_the_spread():
     jac = np.column_stack([np.ones(n), t])
     slopes, ses = [], []
     for _ in range(reps):
-        e = 0.5 * rng.standard_normal(n) + _ou(rng, n, 40.0)
+        e = 0.5 * rng.standard_normal(n) + ou_series(rng, n, 40.0)
         beta, *_ = np.linalg.lstsq(jac, e, rcond=None)
         cov, m = fit_error_model(t, jac, jac @ beta - e, max_points=200)
         slopes.append(beta[1])

@@ -3,6 +3,7 @@
 import numpy as np
 import pandas as pd
 import pytest
+from correlated_noise import ou_series
 
 from fits.errors import InputError
 from fits.lsq import compare_models, fit_throw
@@ -133,14 +134,8 @@ def test_bad_cp_is_refused():
 
 
 def _persistent_errors(rng, n, *, white_m, slow_m, ell_frames):
-    """White noise plus an exponentially correlated series (exact AR(1) sampling)."""
-    phi = np.exp(-1.0 / ell_frames)
-    slow = np.empty(n)
-    slow[0] = rng.standard_normal()
-    xi = rng.standard_normal(n) * np.sqrt(1 - phi * phi)
-    for i in range(1, n):
-        slow[i] = phi * slow[i - 1] + xi[i]
-    return white_m * rng.standard_normal(n) + slow_m * slow
+    """White noise plus an exponentially correlated series."""
+    return white_m * rng.standard_normal(n) + slow_m * ou_series(rng, n, ell_frames)
 
 
 def test_intervals_cover_the_truth_under_errors_that_persist_over_frames():
