@@ -51,7 +51,8 @@ def throw_record(scene, fit, *, timings_s, world_points=None, extra=None):
         "condition_number": {k: _num(v) for k, v in d["condition_number"].items()},
         "residual_autocorrelation": {k: _num(v) for k, v in
                                      d["residual_autocorrelation"].items()},
-        "error_model": {k: (None if v is None else {q: _num(x) for q, x in v.items()})
+        "error_model": {k: (None if v is None else
+                            {q: (x if isinstance(x, str) else _num(x)) for q, x in v.items()})
                         for k, v in d["error_model"].items()},
         "aic": _num(d["aic"]),
         "vidtrack_version": __version__,
