@@ -55,7 +55,7 @@ _ELL_GRID = 7
 
 @dataclass(frozen=True)
 class ErrorModel:
-    """White plus exponentially correlated errors fitted to a track's residuals.
+    """White plus correlated errors (:data:`KERNELS`) fitted to a track's residuals.
 
     Attributes
     ----------
@@ -101,31 +101,36 @@ def _bin(t, jac, r, max_points):
     return means(t), means(jac), means(r), m
 
 
+def _reml(jq, rq, lam, f, n, p):
+    """Profile REML (s2 profiled out) at correlated fraction f, in the eigenbasis of the
+    correlation matrix (eigenvalues lam); returns (negative log-likelihood, s2, d), d the
+    eigenvalues of the model's correlation matrix."""
+    d = (1.0 - f) + f * lam
+    if np.any(d <= 0):
+        return np.inf, np.nan, d
+    w = 1.0 / d
+    a = jq.T @ (w[:, None] * jq)
+    b = jq.T @ (w * rq)
+    try:
+        c = np.linalg.cholesky(a)
+    except np.linalg.LinAlgError:
+        return np.inf, np.nan, d
+    z = np.linalg.solve(c, b)
+    q = float(rq @ (w * rq) - z @ z)
+    if not q > 0:
+        return np.inf, np.nan, d
+    s2 = q / (n - p)
+    nll = 0.5 * ((n - p) * np.log(s2) + np.sum(np.log(d)) + 2.0 * np.sum(np.log(np.diag(c))))
+    return nll, s2, d
+
+
 def _profile(jq, rq, lam, n, p):
-    """Profile REML over f in the eigenbasis of the correlation matrix (eigenvalues lam)."""
-    def nll(f):
-        d = (1.0 - f) + f * lam
-        if np.any(d <= 0):
-            return np.inf
-        w = 1.0 / d
-        a = jq.T @ (w[:, None] * jq)
-        b = jq.T @ (w * rq)
-        try:
-            c = np.linalg.cholesky(a)
-        except np.linalg.LinAlgError:
-            return np.inf
-        z = np.linalg.solve(c, b)
-        q = float(rq @ (w * rq) - z @ z)
-        if not q > 0:
-            return np.inf
-        return 0.5 * ((n - p) * np.log(q / (n - p)) + np.sum(np.log(d))
-                      + 2.0 * np.sum(np.log(np.diag(c))))
-    res = optimize.minimize_scalar(nll, bounds=(0.0, 0.999), method="bounded",
+    """The best correlated fraction f: (negative log-likelihood, f)."""
+    res = optimize.minimize_scalar(lambda f: _reml(jq, rq, lam, f, n, p)[0],
+                                   bounds=(0.0, 0.999), method="bounded",
                                    options={"xatol": 1e-3})
-    f = float(res.x)
     # the bounded search never evaluates the end point: white noise must be able to win
-    best = (nll(0.0), 0.0)
-    return min(best, (float(res.fun), f))
+    return min((_reml(jq, rq, lam, 0.0, n, p)[0], 0.0), (float(res.fun), float(res.x)))
 
 
 def _best_time(kernel, lag, ells, jb, rb, n, p):
@@ -137,7 +142,7 @@ def _best_time(kernel, lag, ells, jb, rb, n, p):
             lam, q = np.linalg.eigh(kernel(lag / ell))
             jq, rq = q.T @ jb, q.T @ rb
             val, f = _profile(jq, rq, lam, n, p)
-            cache[ell] = (val, f, ell, lam, q, jq, rq)
+            cache[ell] = (val, f, ell, lam, jq, rq)
         return cache[ell]
 
     # a coarse log grid, then halving the log step twice round the best point
@@ -194,12 +199,8 @@ def fit_error_model(t, jac, r, *, max_points=MAX_POINTS):
     # long memory unless the residuals clearly say short (REML better by LONG_MEMORY_SLACK)
     kernel = ("cauchy" if fits["cauchy"][0] <= fits["exponential"][0] + LONG_MEMORY_SLACK
               else "exponential")
-    _, f, ell, lam, q, jq, rq = fits[kernel]
-    d = (1.0 - f) + f * lam
-    w = 1.0 / d
-    a = jq.T @ (w[:, None] * jq)
-    b = jq.T @ (w * rq)
-    s2 = float(rq @ (w * rq) - b @ np.linalg.solve(a, b)) / (n - p)
+    _, f, ell, lam, jq, rq = fits[kernel]
+    _, s2, d = _reml(jq, rq, lam, f, n, p)
     # J' V J of the full track from the binned one: each bin holds m points whose mean
     # error has the binned model's covariance
     meat = (m * m) * (jq.T @ ((s2 * d)[:, None] * jq))
