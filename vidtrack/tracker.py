@@ -387,8 +387,6 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
     length = np.full(n, np.nan)
     flags = np.full(n, LOST, dtype=np.int64)
     clean = np.zeros(n, bool)
-    first_border = None
-    first_border_at = [None]  # the frame that set first_border
 
     min_area = max(1, int(min_area_px))
     acq = Acquirer(confirm=3, max_step=0.25 * max(rows, cols), min_motion=0.3,
@@ -399,7 +397,6 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
     moving_frames = 0
 
     def store(i, blob, extra=0):
-        nonlocal first_border
         u[i], v[i], area[i] = blob.u, blob.v, blob.area
         angle[i], length[i] = blob.angle, blob.length
         fl = extra
@@ -411,9 +408,6 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
                 fl |= BLADE
         flags[i] = fl
         clean[i] = fl == 0
-        if first_border is None:
-            first_border = bool(fl & (BORDER | MERGED | BLADE))
-            first_border_at[0] = i
         return fl
 
     def search_blobs(i, frame, gain, level):
@@ -640,9 +634,6 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
                 drop = np.arange(fol.start, i)
                 u[drop] = v[drop] = area[drop] = angle[drop] = length[drop] = np.nan
                 flags[drop] = LOST
-                if first_border_at[0] is not None and first_border_at[0] >= fol.start:
-                    first_border = None
-                    first_border_at[0] = None
             else:
                 lost_state = (fol.pred, tau[i])
                 if fol.level is not None:
@@ -676,8 +667,11 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
     if view == "top":
         rel, rel_tau, rel_note = None, None, _TOP_RELEASE_NOTE
     else:
+        # the straw's first sighting touched neither the border nor another object
+        seen = np.flatnonzero(np.isfinite(u))
+        first_in_open = seen.size > 0 and not flags[seen[0]] & (BORDER | MERGED | BLADE)
         rel, rel_tau, rel_note = _refine.find_release(
-            tau, pos, _release_evidence(u, flags), first_in_open=not first_border)
+            tau, pos, _release_evidence(u, flags), first_in_open=bool(first_in_open))
     if rel is not None:
         before = (np.arange(n) < rel) & np.isfinite(u)
         flags[before] |= PRE_RELEASE
