@@ -7,9 +7,7 @@ from pathlib import Path
 
 import pytest
 
-# as the CLI does (vidtrack/cli/__init__.py): one BLAS thread, before numpy loads
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
+import vidtrack.cli  # noqa: E402,F401  (sets one BLAS thread, as the CLI does, before numpy loads)
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
