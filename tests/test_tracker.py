@@ -157,6 +157,26 @@ def test_no_release_in_free_flight_or_where_the_acceleration_barely_changes():
     assert rel is None and "not the ride's strong acceleration" in note
 
 
+def test_knot_search_rss_matches_one_least_squares_solve_per_knot():
+    # the vectorised projection against numpy's lstsq of the whole design, knot by knot,
+    # with zero weights (the biweight's dropped points) and knots near the first points
+    rng = np.random.default_rng(5)
+    for _ in range(40):
+        n = int(rng.integers(16, 80))
+        t = np.sort(rng.uniform(0.0, 80.0, n))
+        t -= t[0]
+        scale = max(float(t[-1]), 1.0)
+        p = np.column_stack([0.01 * t ** 2, 0.5 * t]) + 0.1 * rng.standard_normal((n, 2))
+        w = rng.uniform(0.0, 1.0, n) * (rng.random(n) > 0.2)
+        knots = np.linspace(1.0, t[-1] - 1.0, 30)
+        got = _refine._knot_rss(t / scale, p, w, knots / scale)
+        for g, rss in zip(knots, got):
+            a = _refine._knot_design(t / scale, g / scale) * w[:, None]
+            coef, *_ = np.linalg.lstsq(a, p * w[:, None], rcond=None)
+            want = float(np.sum((p * w[:, None] - a @ coef) ** 2))
+            assert rss == pytest.approx(want, rel=1e-8, abs=1e-12)
+
+
 @pytest.mark.parametrize("view", ["front", "top"])
 def test_second_straw_crossing_never_gives_a_wrong_unflagged_frame(view):
     run = synth_run("second", second_straw=True, second_cross_s=0.06)

@@ -118,16 +118,35 @@ def _weighted_lstsq(a, p, w):
     return coef, p - a @ coef
 
 
+def _knot_rss(ts, p, w, tks):
+    """Weighted RSS of the knot spline for each scaled knot in ``tks`` (vectorised).
+
+    The cubic's columns are the same for every knot: the knot column and the positions
+    are projected off them once, and each knot's RSS is the cubic's minus what its
+    column explains (the same numbers as one least-squares solve per knot).
+    """
+    base = _knot_design(ts, 0.0)[:, :4] * w[:, None]
+    u, s, _ = np.linalg.svd(base, full_matrices=False)
+    q = u[:, s > s[0] * base.shape[0] * np.finfo(float).eps]
+    e = p * w[:, None]
+    e = e - q @ (q.T @ e)
+    c = np.clip(tks[None, :] - ts[:, None], 0.0, None) ** 2 * w[:, None]
+    r = c - q @ (q.T @ c)
+    rr = np.einsum("ij,ij->j", r, r)
+    re = r.T @ e
+    explained = np.zeros_like(rr)
+    # a knot column the cubic already spans (to rounding) explains nothing
+    ok = rr > (c.shape[0] * np.finfo(float).eps) ** 2 * np.einsum("ij,ij->j", c, c)
+    explained[ok] = np.sum(re[ok] ** 2, axis=1) / rr[ok]
+    return float(np.sum(e * e)) - explained
+
+
 def _best_knot(ts, p, w, lo, hi, scale):
     """Knot (frames) minimising the weighted RSS: a quarter-frame grid, refined to 0.01."""
-    def rss(g):
-        _, r = _weighted_lstsq(_knot_design(ts, g / scale), p, w)
-        return float(np.sum((r * w[:, None]) ** 2))
-
     best, step = None, 0.25
     grid = np.arange(lo, hi + 1e-9, step)
     for fine in (0.05, 0.01, None):
-        best = float(grid[int(np.argmin([rss(g) for g in grid]))])
+        best = float(grid[int(np.argmin(_knot_rss(ts, p, w, grid / scale)))])
         if fine is None:
             return best
         grid = np.arange(max(lo, best - step), min(hi, best + step) + 1e-9, fine)
