@@ -37,6 +37,9 @@ class FitOptions:
     report: bool = True
     quiet: bool = True
     threads: int = 0          # views tracked at once (0: as many as views and cores)
+    # the second view in a process of its own, not a thread (spawned: needs a main module
+    # that is safe to import, as the command line's is)
+    view_process: bool = False
 
     def key(self):
         return {"model": self.model, "bootstrap": self.bootstrap,
@@ -94,48 +97,122 @@ def _track_view(scene, folder, name, options, cancel=None):
         return track(src, view=name, quiet=options.quiet, cancel=cancel, **TRACKER_SETTINGS)
 
 
+def _view_process(conn, scene, folder, name, options):
+    """Body of the process that tracks one view: the Track, or the error, down ``conn``."""
+    import signal
+    import sys
+
+    # Ctrl-C reaches the whole process group: the parent stops this process itself, by
+    # SIGTERM, on which it exits as from an error (finalisers run: no leaked semaphore)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))
+    try:
+        result = ("ok", _track_view(scene, folder, name, options))
+    except SystemExit:
+        raise
+    except BaseException as exc:   # re-raised in the parent
+        result = ("error", exc)
+    try:
+        conn.send(result)
+    except Exception as exc:       # e.g. an exception that does not pickle
+        conn.send(("error", RuntimeError(f"tracking view {name}: {result[1]!r} ({exc})")))
+    conn.close()
+
+
+class _ViewProcess:
+    """One view tracked in a process of its own (spawned: nothing inherited but args)."""
+
+    def __init__(self, scene, folder, name, options):
+        import multiprocessing
+
+        ctx = multiprocessing.get_context("spawn")
+        self.name = name
+        self.conn, child = ctx.Pipe(duplex=False)
+        self.proc = ctx.Process(target=_view_process, args=(child, scene, folder, name, options),
+                                name=f"track-{name}", daemon=True)
+        self.proc.start()
+        child.close()
+
+    def result(self):
+        try:
+            status, value = self.conn.recv()
+        except EOFError:
+            self.proc.join()
+            raise RuntimeError(f"the process tracking view {self.name} ended without a "
+                               f"result (exit code {self.proc.exitcode})") from None
+        self.proc.join()
+        if status != "ok":
+            raise value
+        return value
+
+    def stop(self):
+        if self.proc.is_alive():
+            self.proc.terminate()
+        self.proc.join()
+        self.conn.close()
+
+
+class _ViewThread:
+    """One view tracked in a thread beside the calling one (cancelled at its next frame)."""
+
+    def __init__(self, scene, folder, name, options):
+        import threading
+
+        self.name = name
+        self.cancel = threading.Event()
+        self.out = {}
+        self.thread = threading.Thread(target=self._run, args=(scene, folder, name, options),
+                                       name=f"track-{name}")
+        self.thread.start()
+
+    def _run(self, scene, folder, name, options):
+        from vidtrack.tracker import Cancelled
+
+        try:
+            self.out["ok"] = _track_view(scene, folder, name, options, self.cancel)
+        except Cancelled:
+            pass
+        except BaseException as exc:           # re-raised in the calling thread
+            self.out["error"] = exc
+
+    def result(self):
+        self.thread.join()
+        if "error" in self.out:
+            raise self.out["error"]
+        return self.out["ok"]
+
+    def stop(self):
+        self.cancel.set()
+        self.thread.join()
+
+
 def _track_views(scene, folder, options, timings):
     """Track every view of the scene in ``folder``; returns {view: Track}.
 
-    With two views and ``options.threads`` above 1 the second view is tracked in a
-    thread beside the first: decoding and OpenCV's image operations release the GIL, so
-    the views overlap on two cores. If the first view fails (or Ctrl-C), the thread is
-    cancelled at its next frame and joined before the error goes on.
+    With two views and ``options.threads`` above 1 the second view is tracked beside
+    the first: in a process of its own when ``options.view_process`` (the command line;
+    the views then run truly at once on two cores), else in a thread (decoding and
+    OpenCV's operations release the GIL, the tracker's Python does not: the overlap is
+    partial). If the first view fails (or Ctrl-C), the other is stopped before the
+    error goes on; if the other fails, its error is raised here.
     """
-    import threading
-
-    from vidtrack.tracker import Cancelled
-
     names = list(scene.view_names)
     t0 = time.perf_counter()
-    tracks, failed = {}, {}
+    tracks = {}
     threads = options.threads or min(len(names), os.cpu_count() or 1)
-    worker, cancel = None, threading.Event()
+    other = None
     if threads > 1 and len(names) > 1:
-        other = names.pop()
-
-        def run_other():
-            try:
-                tracks[other] = _track_view(scene, folder, other, options, cancel)
-            except Cancelled:
-                pass
-            except BaseException as exc:       # re-raised in the calling thread
-                failed[other] = exc
-
-        worker = threading.Thread(target=run_other, name=f"track-{other}")
-        worker.start()
-    done = False
+        name = names.pop()
+        other = (_ViewProcess if options.view_process else _ViewThread)(
+            scene, folder, name, options)
     try:
         for name in names:
             tracks[name] = _track_view(scene, folder, name, options)
-        done = True
+        if other is not None:
+            tracks[other.name] = other.result()
     finally:
-        if worker is not None:
-            if not done:                        # the first view failed: stop the other
-                cancel.set()
-            worker.join()
-    for exc in failed.values():
-        raise exc
+        if other is not None:
+            other.stop()
     timings["track"] = time.perf_counter() - t0
     return {n: tracks[n] for n in scene.view_names}
 

@@ -170,10 +170,22 @@ def _shared_x_offset(ref_w, t0_ref, other_w, other_step, *, min_overlap, name, s
             return np.inf
         return float(np.mean((xi[ok] - xr[ok]) ** 2))
 
+    def costs_of(t0s):
+        # cost() for many offsets at once, in blocks of about a million points
+        out = np.empty(t0s.size)
+        per = max(1, 1_000_000 // max(tr.size, 1))
+        for a in range(0, t0s.size, per):
+            xi = _interp_gapless(tr[None, :] + t0s[a:a + per, None], to, xo, max_step)
+            ok = np.isfinite(xi)
+            cnt = np.count_nonzero(ok, axis=1)
+            sq = np.sum(np.where(ok, (xi - xr) ** 2, 0.0), axis=1)
+            out[a:a + per] = np.where(cnt >= min_overlap, sq / np.maximum(cnt, 1), np.inf)
+        return out
+
     lo = to[0] - tr[-1]
     hi = to[-1] - tr[0]
     grid = np.arange(lo, hi + 1e-12, 0.25 * other_step)
-    costs = np.array([cost(g) for g in grid])
+    costs = costs_of(grid)
     if not np.isfinite(costs).any():
         raise TrackError(f"view {name}: its usable frames never overlap the reference view's "
                          "in time; give views.<view>.sync_frame")

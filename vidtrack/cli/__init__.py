@@ -17,7 +17,11 @@ import sys
 # (hundreds of rows), where BLAS threads gain nothing, and the work is already spread
 # over the cores by view and by run; threaded BLAS spinning on cores that the tracker
 # or other runs hold slowed a fit from 0.4 s to 30 s. A user's own setting wins.
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+# The same for OpenCV's worker threads (read when cv2 loads): on the tracker's regions
+# of interest they cost more than they give (a full-size view tracked in 1.8 s instead
+# of 2.3 s without them); decoding does not use them.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
+             "OPENCV_FOR_THREADS_NUM"):
     os.environ.setdefault(_var, "1")
 
 #: Subcommands in the order ``vidtrack --help`` lists them (module names in this package).

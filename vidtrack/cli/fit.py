@@ -82,7 +82,8 @@ def run(args):
         raise VidtrackError(f"--bootstrap must be >= 0, got {args.bootstrap}")
     runs = find_runs(args.runs)
     options = FitOptions(model=args.model, bootstrap=args.bootstrap, seed=args.seed,
-                         force=args.force, report=not args.no_report, quiet=args.quiet)
+                         force=args.force, report=not args.no_report, quiet=args.quiet,
+                         view_process=True)
 
     def progress(record):
         if not args.quiet and not args.json and sys.stderr.isatty():

@@ -39,7 +39,8 @@ def run(args):
     if not 0 < args.alpha < 1:
         raise VidtrackError(f"--alpha must be in (0, 1), got {args.alpha}")
     exp = load_experiment(args.experiment)
-    options = FitOptions(model=args.model, force=args.force, quiet=args.quiet)
+    options = FitOptions(model=args.model, force=args.force, quiet=args.quiet,
+                         view_process=True)
     records = fit_runs(exp.run_dirs(), options, jobs=args.jobs, scheduler=args.scheduler)
     table = coefficient_table(exp, records)
     fits = analyse(exp, table, alpha=args.alpha)
