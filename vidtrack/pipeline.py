@@ -19,6 +19,8 @@ from pathlib import Path
 
 from vidtrack import __version__
 from vidtrack._atomic import write_text
+from vidtrack._view_workers import (ViewProcess, ViewThread, preload_later_stages, source_of,
+                                    track_view)
 from vidtrack.errors import FitError, SceneError
 
 OUT_DIR = "vidtrack"
@@ -66,16 +68,12 @@ def _file_fingerprint(path):
     return [st.st_size, st.st_mtime_ns, h.hexdigest()]
 
 
-def _source_of(view, scene, folder):
-    return view.source if Path(folder) == scene.folder else view.source_in(folder)
-
-
 def _check_sources(scene, folder):
     """Every view's footage exists (before anything is read or written)."""
     from vidtrack.errors import SourceError
 
     for name in scene.view_names:
-        path = _source_of(scene.views[name], scene, folder)
+        path = source_of(scene.views[name], scene, folder)
         if not path.exists():
             raise SourceError(f"{scene.path}: views.{name}.source: {path} does not exist "
                               "(expected the view's video, image folder or .cine)")
@@ -88,151 +86,71 @@ def _read_stages(out_dir):
         return {}
 
 
-def _track_view(scene, folder, name, options, cancel=None):
-    from vidtrack.frames import open_source
-    from vidtrack.tracker import track
-
-    view = scene.views[name]
-    with open_source(_source_of(view, scene, folder), fps=view.fps, frames=view.frames) as src:
-        return track(src, view=name, quiet=options.quiet, cancel=cancel, **TRACKER_SETTINGS)
-
-
-def _view_process(conn, scene, folder, name, options):
-    """Body of the process that tracks one view: the Track, or the error, down ``conn``."""
-    import signal
-    import sys
-
-    # Ctrl-C reaches the whole process group: the parent stops this process itself, by
-    # SIGTERM, on which it exits as from an error (finalisers run: no leaked semaphore)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))
-    try:
-        result = ("ok", _track_view(scene, folder, name, options))
-    except SystemExit:
-        raise
-    except BaseException as exc:   # re-raised in the parent
-        result = ("error", exc)
-    try:
-        conn.send(result)
-    except Exception as exc:       # e.g. an exception that does not pickle
-        conn.send(("error", RuntimeError(f"tracking view {name}: {result[1]!r} ({exc})")))
-    conn.close()
-
-
-class _ViewProcess:
-    """One view tracked in a process of its own (spawned: nothing inherited but args)."""
-
-    def __init__(self, scene, folder, name, options):
-        import multiprocessing
-
-        ctx = multiprocessing.get_context("spawn")
-        self.name = name
-        self.conn, child = ctx.Pipe(duplex=False)
-        self.proc = ctx.Process(target=_view_process, args=(child, scene, folder, name, options),
-                                name=f"track-{name}", daemon=True)
-        self.proc.start()
-        child.close()
-
-    def result(self):
-        try:
-            status, value = self.conn.recv()
-        except EOFError:
-            self.proc.join()
-            raise RuntimeError(f"the process tracking view {self.name} ended without a "
-                               f"result (exit code {self.proc.exitcode})") from None
-        self.proc.join()
-        if status != "ok":
-            raise value
-        return value
-
-    def stop(self):
-        if self.proc.is_alive():
-            self.proc.terminate()
-        self.proc.join()
-        self.conn.close()
-
-
-class _ViewThread:
-    """One view tracked in a thread beside the calling one (cancelled at its next frame)."""
-
-    def __init__(self, scene, folder, name, options):
-        import threading
-
-        self.name = name
-        self.cancel = threading.Event()
-        self.out = {}
-        self.thread = threading.Thread(target=self._run, args=(scene, folder, name, options),
-                                       name=f"track-{name}")
-        self.thread.start()
-
-    def _run(self, scene, folder, name, options):
-        from vidtrack.tracker import Cancelled
-
-        try:
-            self.out["ok"] = _track_view(scene, folder, name, options, self.cancel)
-        except Cancelled:
-            pass
-        except BaseException as exc:           # re-raised in the calling thread
-            self.out["error"] = exc
-
-    def result(self):
-        self.thread.join()
-        if "error" in self.out:
-            raise self.out["error"]
-        return self.out["ok"]
-
-    def stop(self):
-        self.cancel.set()
-        self.thread.join()
-
-
 def _track_views(scene, folder, options, timings):
-    """Track every view of the scene in ``folder``; returns {view: Track}.
+    """Track every view of the scene in ``folder``.
 
     With two views and ``options.threads`` above 1 the second view is tracked beside
-    the first: in a process of its own when ``options.view_process`` (the command line;
-    the views then run truly at once on two cores), else in a thread (decoding and
-    OpenCV's operations release the GIL, the tracker's Python does not: the overlap is
-    partial). If the first view fails (or Ctrl-C), the other is stopped before the
-    error goes on; if the other fails, its error is raised here.
+    the first (:mod:`vidtrack._view_workers`): in a process of its own when
+    ``options.view_process`` (the command line), else in a thread. If the first view
+    fails (or Ctrl-C), the other is stopped before the error goes on; if the other
+    fails, its error is raised here.
+
+    Returns
+    -------
+    (dict, ViewProcess or None)
+        {view: Track}, and the process that tracked the second view when it is kept to
+        draw the report (the caller stops it).
     """
     names = list(scene.view_names)
     t0 = time.perf_counter()
     tracks = {}
     threads = options.threads or min(len(names), os.cpu_count() or 1)
-    other = None
+    other, keep = None, False
     if threads > 1 and len(names) > 1:
         name = names.pop()
-        other = (_ViewProcess if options.view_process else _ViewThread)(
-            scene, folder, name, options)
+        if options.view_process:
+            other = ViewProcess(scene, folder, name, TRACKER_SETTINGS, quiet=options.quiet,
+                                report=options.report)
+            preload_later_stages()
+        else:
+            other = ViewThread(scene, folder, name, TRACKER_SETTINGS, quiet=options.quiet)
     try:
         for name in names:
-            tracks[name] = _track_view(scene, folder, name, options)
+            tracks[name] = track_view(scene, folder, name, TRACKER_SETTINGS,
+                                      quiet=options.quiet)
         if other is not None:
-            tracks[other.name] = other.result()
+            tracks[other.name] = other.track()
+            keep = options.report and isinstance(other, ViewProcess)
     finally:
-        if other is not None:
+        if other is not None and not keep:
             other.stop()
     timings["track"] = time.perf_counter() - t0
-    return {n: tracks[n] for n in scene.view_names}
+    return {n: tracks[n] for n in scene.view_names}, (other if keep else None)
 
 
-def _tracks_stage(scene, folder, out_dir, options, timings, stages):
-    """Tracks and the world track: reused from tracks.h5 when nothing changed."""
-    from vidtrack.stereo import merge_tracks
-    from vidtrack.tracks_io import read_tracks, write_tracks
+def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers):
+    """Tracks and the world track: reused from tracks.h5 when nothing changed.
 
+    A worker process kept to draw the report is appended to ``workers``.
+    """
     key = _digest({"version": __version__, "scene": scene.hash, "tracker": TRACKER_SETTINGS,
-                   "sources": {n: _file_fingerprint(_source_of(v, scene, folder))
+                   "sources": {n: _file_fingerprint(source_of(v, scene, folder))
                                for n, v in scene.views.items()}})
     h5 = out_dir / "tracks.h5"
     if not options.force and stages.get("tracks") == key and h5.is_file():
+        from vidtrack.tracks_io import read_tracks
+
         t0 = time.perf_counter()
         tf = read_tracks(h5)
         if tf.world is not None:
             timings["tracks_reused"] = time.perf_counter() - t0
             return key, tf.tracks, tf.world, True
-    tracks = _track_views(scene, folder, options, timings)
+    tracks, helper = _track_views(scene, folder, options, timings)
+    if helper is not None:
+        workers.append(helper)
+    from vidtrack.stereo import merge_tracks
+    from vidtrack.tracks_io import write_tracks
+
     t0 = time.perf_counter()
     mappings = {n: v.mapping() for n, v in scene.views.items()}
     world = merge_tracks(tracks, mappings,
@@ -261,6 +179,22 @@ def fit_throw_folder(scene, folder, out_dir, options):
 
     Returns the fit.json record written to ``out_dir``.
     """
+    out_dir = Path(out_dir)
+    _check_sources(scene, folder)
+    workers = []
+    try:
+        return _fit_throw(scene, folder, out_dir, options, workers)
+    finally:
+        for w in workers:
+            w.stop()
+
+
+def _fit_throw(scene, folder, out_dir, options, workers):
+    stages = _read_stages(out_dir)
+    timings = {}
+    t_start = time.perf_counter()
+    tracks_key, tracks, world, reused = _tracks_stage(scene, folder, out_dir, options,
+                                                      timings, stages, workers)
     import numpy as np
 
     from fits.errors import ConvergenceError
@@ -268,13 +202,6 @@ def fit_throw_folder(scene, folder, out_dir, options):
     from vidtrack.fit_record import dumps, throw_record
     from vidtrack.run_report import write_run_report
 
-    out_dir = Path(out_dir)
-    _check_sources(scene, folder)
-    stages = _read_stages(out_dir)
-    timings = {}
-    t_start = time.perf_counter()
-    tracks_key, tracks, world, reused = _tracks_stage(scene, folder, out_dir, options,
-                                                      timings, stages)
     cp = _check_cp(scene, options)
     # tracks.h5 itself too: a track edited by hand (flags set, points removed) is refitted
     fit_key = _digest({"tracks": tracks_key, "fit": options.key(), "cp": cp,
@@ -306,8 +233,12 @@ def fit_throw_folder(scene, folder, out_dir, options):
     record = throw_record(scene, fit, timings_s=timings, extra=extra)
     if options.report:
         t0 = time.perf_counter()
-        write_run_report(out_dir, record, fit=fit, world=world.data,
-                         views={n: tr.data for n, tr in tracks.items()})
+        views = {n: tr.data for n, tr in tracks.items()}
+        # drawn by the process that tracked the second view, if it is there (it loaded
+        # matplotlib while this one fitted)
+        html = (workers[0].render(record, fit=fit, world=world.data, views=views)
+                if workers else None)
+        write_run_report(out_dir, record, fit=fit, world=world.data, views=views, html=html)
         timings["report"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - t_start
     record["timings_s"] = {k: round(float(v), 6) for k, v in timings.items()}

@@ -129,7 +129,13 @@ def render_html(record, *, fit=None, world=None, views=None):
     return _html.page(f"vidtrack fit: {record['run']}", parts)
 
 
-def write_run_report(out_dir, record, *, fit=None, world=None, views=None):
-    """Write report.md and report.html into ``out_dir`` (each atomically)."""
+def write_run_report(out_dir, record, *, fit=None, world=None, views=None, html=None):
+    """Write report.md and report.html into ``out_dir`` (each atomically).
+
+    ``html``: report.html's text when it was already drawn (by :func:`render_html` in
+    another process).
+    """
     write_text(out_dir / "report.md", render_markdown(record))
-    write_text(out_dir / "report.html", render_html(record, fit=fit, world=world, views=views))
+    if html is None:
+        html = render_html(record, fit=fit, world=world, views=views)
+    write_text(out_dir / "report.html", html)

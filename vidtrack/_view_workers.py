@@ -1,0 +1,199 @@
+"""Tracking a scene's second view beside the first: in a process or in a thread.
+
+Internal to :mod:`vidtrack.pipeline`. The command line tracks the second view in a
+spawned process (:class:`ViewProcess`): the two views then run truly at once on two
+cores. That process stays on as the report's renderer: while the calling process merges
+the views and fits, it loads matplotlib (about half a second it would otherwise add to
+the run), and then draws the report page it is sent. Library callers get a thread
+(:class:`ViewThread`): spawning re-imports the caller's main module, which only a main
+module written for it (as the command line's is) survives; in a thread decoding and
+OpenCV's operations overlap, the tracker's Python does not.
+
+Either way, a failure of the view raises its error in the caller, and :meth:`stop`
+ends the worker whatever it is doing (the caller failed or Ctrl-C).
+"""
+
+import signal
+import sys
+
+
+def source_of(view, scene, folder):
+    """The footage of ``view`` for the run (or throw) folder ``folder``."""
+    from pathlib import Path
+
+    return view.source if Path(folder) == scene.folder else view.source_in(folder)
+
+
+def track_view(scene, folder, name, settings, *, quiet=True, cancel=None):
+    """Track view ``name`` of ``scene`` in ``folder`` with the tracker ``settings``."""
+    from vidtrack.frames import open_source
+    from vidtrack.tracker import track
+
+    view = scene.views[name]
+    with open_source(source_of(view, scene, folder), fps=view.fps, frames=view.frames) as src:
+        return track(src, view=name, quiet=quiet, cancel=cancel, **settings)
+
+
+#: What the stages after tracking import (about half a second of a run's start).
+LATER_STAGES = ("scipy.optimize", "h5py", "vidtrack.stereo", "vidtrack.tracks_io", "fits.lsq",
+                "vidtrack.fit_record")
+
+
+def _import_all(names):
+    import importlib
+
+    for name in names:
+        try:
+            importlib.import_module(name)
+        except Exception:      # noqa: S110  (the stage that needs it will say what is wrong)
+            return
+
+
+def preload_later_stages():
+    """Import :data:`LATER_STAGES` in a daemon thread while the views are tracked.
+
+    The tracker spends most of its time in decoding, which releases the GIL, and the
+    other core's process finishes its view first: the imports take time no one was
+    using. A stage importing a module already being loaded waits for it (the import
+    system's per-module lock).
+    """
+    import threading
+
+    threading.Thread(target=_import_all, args=(LATER_STAGES,), name="preload",
+                     daemon=True).start()
+
+
+def _send(conn, status, value, what):
+    try:
+        conn.send((status, value))
+    except Exception as exc:       # e.g. an exception that does not pickle
+        conn.send(("error", RuntimeError(f"{what}: {value!r} ({exc})")))
+
+
+def _warm_up_plots():
+    """Load what drawing the report takes (while the caller merges and fits)."""
+    import fits.lsq  # noqa: F401  (the fit sent for the report unpickles into it)
+    from vidtrack import _html, run_report  # noqa: F401
+
+    _html.png_bytes(_html.figure(1, 1))   # fonts and the Agg canvas, once
+
+
+def _process_main(conn, scene, folder, name, settings, quiet, report):
+    """Body of the worker process: the view's Track, then the report page if asked."""
+    # Ctrl-C reaches the whole process group: the caller stops this process itself, by
+    # SIGTERM, on which it exits as from an error (finalisers run: no leaked semaphore)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))
+    try:
+        result = ("ok", track_view(scene, folder, name, settings, quiet=quiet))
+    except SystemExit:
+        raise
+    except BaseException as exc:   # re-raised in the caller
+        result = ("error", exc)
+    _send(conn, *result, f"tracking view {name}")
+    if result[0] != "ok" or not report:
+        return
+    _warm_up_plots()
+    try:
+        msg = conn.recv()
+    except EOFError:
+        return
+    from vidtrack.run_report import render_html
+
+    record, fit, world, views = msg
+    try:
+        result = ("ok", render_html(record, fit=fit, world=world, views=views))
+    except SystemExit:
+        raise
+    except BaseException as exc:
+        result = ("error", exc)
+    _send(conn, *result, "drawing the report")
+
+
+class ViewProcess:
+    """View ``name`` tracked in a spawned process, which then draws the report if asked.
+
+    Parameters
+    ----------
+    scene, folder, name, settings, quiet
+        As :func:`track_view`.
+    report : bool
+        Keep the process for :meth:`render` after the track.
+    """
+
+    def __init__(self, scene, folder, name, settings, *, quiet=True, report=False):
+        import multiprocessing
+
+        ctx = multiprocessing.get_context("spawn")
+        self.name = name
+        self.conn, child = ctx.Pipe()
+        self.proc = ctx.Process(target=_process_main, name=f"track-{name}", daemon=True,
+                                args=(child, scene, folder, name, settings, quiet, report))
+        self.proc.start()
+        child.close()
+
+    def track(self):
+        """The view's Track (its error raised here)."""
+        try:
+            status, value = self.conn.recv()
+        except EOFError:
+            self.proc.join()
+            raise RuntimeError(f"the process tracking view {self.name} ended without a "
+                               f"result (exit code {self.proc.exitcode})") from None
+        if status != "ok":
+            raise value
+        return value
+
+    def render(self, record, *, fit, world, views):
+        """report.html's text drawn in the process; None if the process is gone."""
+        try:
+            self.conn.send((record, fit, world, views))
+            status, value = self.conn.recv()
+        except (EOFError, OSError):
+            return None
+        if status != "ok":
+            raise value
+        return value
+
+    def stop(self):
+        """End the process (at once if it is still working) and wait for it."""
+        if self.proc.is_alive():
+            self.proc.terminate()
+        self.proc.join()
+        self.conn.close()
+
+
+class ViewThread:
+    """View ``name`` tracked in a thread, cancelled at its next frame by :meth:`stop`."""
+
+    def __init__(self, scene, folder, name, settings, *, quiet=True):
+        import threading
+
+        self.name = name
+        self.cancel = threading.Event()
+        self.out = {}
+        self.thread = threading.Thread(target=self._run, name=f"track-{name}",
+                                       args=(scene, folder, name, settings, quiet))
+        self.thread.start()
+
+    def _run(self, scene, folder, name, settings, quiet):
+        from vidtrack.tracker import Cancelled
+
+        try:
+            self.out["ok"] = track_view(scene, folder, name, settings, quiet=quiet,
+                                        cancel=self.cancel)
+        except Cancelled:
+            pass
+        except BaseException as exc:           # re-raised in the calling thread
+            self.out["error"] = exc
+
+    def track(self):
+        """The view's Track (its error raised here)."""
+        self.thread.join()
+        if "error" in self.out:
+            raise self.out["error"]
+        return self.out["ok"]
+
+    def stop(self):
+        self.cancel.set()
+        self.thread.join()
