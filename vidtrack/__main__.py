@@ -1,6 +1,4 @@
-import sys
-
-from vidtrack.cli import main
+from vidtrack.cli import run
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

@@ -68,6 +68,10 @@ def main(argv=None):
     except INPUT_ERRORS as exc:
         print(f"vidtrack {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        # the reader of the output went away (``| head``): nothing more to say
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except KeyboardInterrupt:
         print(f"vidtrack {args.command}: interrupted; no partial output was kept",
               file=sys.stderr)
@@ -80,5 +84,21 @@ def main(argv=None):
         return 1
 
 
+def run():
+    """The console script: :func:`main`, then exit without the interpreter's teardown.
+
+    Every output is written and closed, and every worker stopped, before ``main``
+    returns; what is left is freeing the loaded libraries' objects one by one (0.2 s of
+    a 3 s fit), which the operating system does at once.
+    """
+    code = main()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):   # a closed pipe (``| head``): nothing more to say
+            pass
+    os._exit(code)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    run()
