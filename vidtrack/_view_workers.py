@@ -94,15 +94,16 @@ def _process_main(conn, scene, folder, name, settings, quiet, report):
     if result[0] != "ok" or not report:
         return
     _warm_up_plots()
-    try:
-        msg = conn.recv()
-    except EOFError:
-        return
-    from vidtrack.run_report import render_html
+    from vidtrack.run_report import render_html, tracks_image
 
-    record, fit, world, views = msg
     try:
-        result = ("ok", render_html(record, fit=fit, world=world, views=views))
+        views = conn.recv()                  # the merged tracks: drawn while the caller fits
+        tracks_img = tracks_image(views)
+        record, fit, world = conn.recv()
+        result = ("ok", render_html(record, fit=fit, world=world, views=views,
+                                    tracks_img=tracks_img))
+    except EOFError:                         # the caller went on without a report
+        return
     except SystemExit:
         raise
     except BaseException as exc:
@@ -144,10 +145,17 @@ class ViewProcess:
             raise value
         return value
 
-    def render(self, record, *, fit, world, views):
+    def send_tracks(self, views):
+        """The merged tracks ({view: rows}), for the report's tracks plot (drawn now)."""
+        try:
+            self.conn.send(views)
+        except OSError:                      # gone: render() will say so
+            pass
+
+    def render(self, record, *, fit, world):
         """report.html's text drawn in the process; None if the process is gone."""
         try:
-            self.conn.send((record, fit, world, views))
+            self.conn.send((record, fit, world))
             status, value = self.conn.recv()
         except (EOFError, OSError):
             return None

@@ -158,6 +158,8 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers):
     # the merge flags each view's frames before its t = 0 and carries the release over
     tracks = world.tracks or tracks
     timings["merge"] = time.perf_counter() - t0
+    if helper is not None:
+        helper.send_tracks({n: tr.data for n, tr in tracks.items()})
     write_tracks(h5, tracks, world, scene_hash=scene.hash,
                  calibration={n: v.to_dict() for n, v in scene.views.items()})
     return key, tracks, world, False
@@ -235,9 +237,8 @@ def _fit_throw(scene, folder, out_dir, options, workers):
         t0 = time.perf_counter()
         views = {n: tr.data for n, tr in tracks.items()}
         # drawn by the process that tracked the second view, if it is there (it loaded
-        # matplotlib while this one fitted)
-        html = (workers[0].render(record, fit=fit, world=world.data, views=views)
-                if workers else None)
+        # matplotlib and drew the tracks plot while this one fitted)
+        html = workers[0].render(record, fit=fit, world=world.data) if workers else None
         write_run_report(out_dir, record, fit=fit, world=world.data, views=views, html=html)
         timings["report"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - t_start

@@ -67,7 +67,7 @@ def _track_plot(views):
     # fixed margins: tight_layout draws the figure once more only to place the labels
     fig.subplots_adjust(left=0.07, right=0.99, top=1 - 0.3 / h, bottom=0.5 / h,
                         hspace=1.0 / 3.2)
-    return fig
+    return _html.few_ticks(fig)
 
 
 def _fit_plot(world, fit):
@@ -96,11 +96,20 @@ def _fit_plot(world, fit):
         top.legend(fontsize=8)
     fig.subplots_adjust(left=0.07, right=0.99, top=0.95, bottom=0.08, wspace=0.32,
                         hspace=0.12)
-    return fig
+    return _html.few_ticks(fig)
 
 
-def render_html(record, *, fit=None, world=None, views=None):
-    """report.html: the tables of report.md and the plots, self-contained."""
+def tracks_image(views):
+    """The tracks-over-frames plot as an inline ``<img>`` (``views``: {view: rows})."""
+    return _html.png(_track_plot(views), alt="tracks")
+
+
+def render_html(record, *, fit=None, world=None, views=None, tracks_img=None):
+    """report.html: the tables of report.md and the plots, self-contained.
+
+    ``tracks_img``: the tracks plot already drawn (:func:`tracks_image`), else it is
+    drawn from ``views``.
+    """
     parts = [f"<p>Model <b>{_html.esc(record['model'])}</b>, Cp = "
              f"{_html.num(record['cp_s_per_m'])} s/m, throws: {record['throws']}.</p>"]
     if record.get("factors"):
@@ -120,8 +129,10 @@ def render_html(record, *, fit=None, world=None, views=None):
     if fit is not None and world is not None:
         parts += ["<h2>Fitted curves over the measured points</h2>",
                   _html.png(_fit_plot(world, fit), alt="fit")]
-    if views:
-        parts += ["<h2>Tracks over frames</h2>", _html.png(_track_plot(views), alt="tracks")]
+    if tracks_img is None and views:
+        tracks_img = tracks_image(views)
+    if tracks_img:
+        parts += ["<h2>Tracks over frames</h2>", tracks_img]
     for note in record.get("notes", []):
         parts.append(f'<p class="note">{_html.esc(note)}</p>')
     parts.append("<p class=\"muted\">Timings (s): " + ", ".join(
