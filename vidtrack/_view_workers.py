@@ -72,8 +72,7 @@ def _send(conn, status, value, what):
 
 def _warm_up_plots():
     """Load what drawing the report takes (while the caller merges and fits)."""
-    import fits.lsq  # noqa: F401  (the fit sent for the report unpickles into it)
-    from vidtrack import _html, run_report  # noqa: F401
+    from vidtrack import _html
 
     _html.png_bytes(_html.figure(1, 1))   # fonts and the Agg canvas, once
 
@@ -99,9 +98,8 @@ def _process_main(conn, scene, folder, name, settings, quiet, report):
     try:
         views = conn.recv()                  # the merged tracks: drawn while the caller fits
         tracks_img = tracks_image(views)
-        record, fit, world = conn.recv()
-        result = ("ok", render_html(record, fit=fit, world=world, views=views,
-                                    tracks_img=tracks_img))
+        record, curves, world = conn.recv()
+        result = ("ok", render_html(record, world=world, curves=curves, tracks_img=tracks_img))
     except EOFError:                         # the caller went on without a report
         return
     except SystemExit:
@@ -154,8 +152,11 @@ class ViewProcess:
 
     def render(self, record, *, fit, world):
         """report.html's text drawn in the process; None if the process is gone."""
+        from vidtrack.run_report import fit_curves
+
         try:
-            self.conn.send((record, fit, world))
+            # the curves, not the fit: the process need not load the fitting code
+            self.conn.send((record, fit_curves(world, fit), world))
             status, value = self.conn.recv()
         except (EOFError, OSError):
             return None

@@ -70,11 +70,17 @@ def _track_plot(views):
     return _html.few_ticks(fig)
 
 
-def _fit_plot(world, fit):
+def fit_curves(world, fit):
+    """What the fit plot needs of the fit: the fitted positions on a fine time grid
+    (``tt``, ``pred``) and at the measured times (``pred_at``), as plain arrays."""
     t = world["t_s"].to_numpy()
     tt = np.linspace(np.nanmin(t), np.nanmax(t), 400)
-    pred = fit.predict(tt)
-    pred_at = fit.predict(t)
+    return {"tt": tt, "pred": fit.predict(tt), "pred_at": fit.predict(t)}
+
+
+def _fit_plot(world, curves):
+    t = world["t_s"].to_numpy()
+    tt, pred, pred_at = curves["tt"], curves["pred"], curves["pred_at"]
     fig = _html.figure(12, 6.4)
     axs = fig.subplots(2, 3, sharex=True)
     for i, axis in enumerate(AXES):
@@ -104,11 +110,11 @@ def tracks_image(views):
     return _html.png(_track_plot(views), alt="tracks")
 
 
-def render_html(record, *, fit=None, world=None, views=None, tracks_img=None):
+def render_html(record, *, fit=None, world=None, views=None, tracks_img=None, curves=None):
     """report.html: the tables of report.md and the plots, self-contained.
 
     ``tracks_img``: the tracks plot already drawn (:func:`tracks_image`), else it is
-    drawn from ``views``.
+    drawn from ``views``; ``curves``: :func:`fit_curves`, else computed from ``fit``.
     """
     parts = [f"<p>Model <b>{_html.esc(record['model'])}</b>, Cp = "
              f"{_html.num(record['cp_s_per_m'])} s/m, throws: {record['throws']}.</p>"]
@@ -126,9 +132,11 @@ def render_html(record, *, fit=None, world=None, views=None, tracks_img=None):
     parts.append(_html.table(("axis", "points", "residual RMS (m)"),
                              [(a, record["points"][a], _html.num(record["residual_rms_m"][a], 3))
                               for a in AXES]))
-    if fit is not None and world is not None:
+    if curves is None and fit is not None and world is not None:
+        curves = fit_curves(world, fit)
+    if curves is not None and world is not None:
         parts += ["<h2>Fitted curves over the measured points</h2>",
-                  _html.png(_fit_plot(world, fit), alt="fit")]
+                  _html.png(_fit_plot(world, curves), alt="fit")]
     if tracks_img is None and views:
         tracks_img = tracks_image(views)
     if tracks_img:
