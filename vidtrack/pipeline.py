@@ -251,8 +251,6 @@ def _fit_throw(scene, folder, out_dir, options, workers):
 
 def fit_run(run_dir, options=FitOptions()):
     """Fit one run folder (and each of its throws); returns the run's fit.json record."""
-    from vidtrack.fit_record import dumps, mean_record
-    from vidtrack.run_report import write_run_report
     from vidtrack.scene import load_scene
 
     scene = load_scene(run_dir)
@@ -260,6 +258,9 @@ def fit_run(run_dir, options=FitOptions()):
     throws = scene.throw_dirs()
     if not throws:
         return fit_throw_folder(scene, scene.folder, out, options)
+    from vidtrack.fit_record import dumps, mean_record
+    from vidtrack.run_report import write_run_report
+
     t0 = time.perf_counter()
     records = [fit_throw_folder(scene, d, out / d.name, options) for d in throws]
     record = mean_record(scene, records, timings_s={

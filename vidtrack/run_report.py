@@ -55,10 +55,12 @@ def _track_plot(views):
     fig = _html.figure(10, 3.2 * max(len(views), 1))
     axs = np.atleast_1d(fig.subplots(max(len(views), 1), 1))
     for ax, (name, df) in zip(axs, views.items()):
-        bad = df["flags"].to_numpy() != 0
+        frame = np.asarray(df["frame"])
+        bad = np.asarray(df["flags"]) != 0
         for col, colour in (("u_px", "tab:blue"), ("v_px", "tab:orange")):
-            ax.plot(df["frame"], df[col], ".", ms=2, color=colour, label=col)
-            ax.plot(df["frame"][bad], df[col][bad], "x", ms=4, color="red")
+            y = np.asarray(df[col])
+            ax.plot(frame, y, ".", ms=2, color=colour, label=col)
+            ax.plot(frame[bad], y[bad], "x", ms=4, color="red")
         ax.set_title(f"{name} view: straw centroid (red x: flagged, not fitted)")
         ax.set_xlabel("frame")
         ax.set_ylabel("pixels")
@@ -73,18 +75,19 @@ def _track_plot(views):
 def fit_curves(world, fit):
     """What the fit plot needs of the fit: the fitted positions on a fine time grid
     (``tt``, ``pred``) and at the measured times (``pred_at``), as plain arrays."""
-    t = world["t_s"].to_numpy()
+    t = np.asarray(world["t_s"])
     tt = np.linspace(np.nanmin(t), np.nanmax(t), 400)
     return {"tt": tt, "pred": fit.predict(tt), "pred_at": fit.predict(t)}
 
 
 def _fit_plot(world, curves):
-    t = world["t_s"].to_numpy()
+    """``world``: the world track's columns (a DataFrame or a dict of arrays)."""
+    t = np.asarray(world["t_s"])
     tt, pred, pred_at = curves["tt"], curves["pred"], curves["pred_at"]
     fig = _html.figure(12, 6.4)
     axs = fig.subplots(2, 3, sharex=True)
     for i, axis in enumerate(AXES):
-        obs = world[f"{axis}_m"].to_numpy()
+        obs = np.asarray(world[f"{axis}_m"])
         ok = np.isfinite(obs)
         top, bottom = axs[0, i], axs[1, i]
         if not ok.any():
