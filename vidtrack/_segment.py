@@ -207,8 +207,23 @@ class Segmenter:
         fi = frame[y0:y1, x0:x1]
         bi = self._bg_int(y0, y1, x0, x1, gain)
         ti = self.thr_int[y0:y1, x0:x1]
+        # Over the whole region only what changed beyond the threshold (two passes); the
+        # rest only round the changes (with the reach of the closing and the 2-pixel
+        # dilation below, + 1): the components are the same as over the whole region, at
+        # a fraction of the cost (a region is mostly background). Every mask below is
+        # part of ``changed``.
+        changed = cv2.compare(cv2.absdiff(fi, bi), ti, cv2.CMP_GT)
+        bx, by, bw, bh = cv2.boundingRect(changed)
+        m = _CROP_MARGIN
+        cx0, cy0 = max(0, bx - m), max(0, by - m)
+        cx1, cy1 = min(x1 - x0, bx + bw + m), min(y1 - y0, by + bh + m)
+        if bw == 0 or bh == 0:
+            cx1, cy1 = cx0, cy0
+        fi, bi, ti = (a[cy0:cy1, cx0:cx1] for a in (fi, bi, ti))
         weak = None
-        if level is not None and np.isfinite(level):
+        if not fi.size:
+            mask = changed[cy0:cy1, cx0:cx1]
+        elif level is not None and np.isfinite(level):
             pos = cv2.compare(cv2.subtract(fi, bi), ti, cv2.CMP_GT)
             neg = cv2.compare(cv2.subtract(bi, fi), ti, cv2.CMP_GT)
             up = cv2.compare(bi, float(level), cv2.CMP_LT)
@@ -220,24 +235,14 @@ class Segmenter:
         elif polarity < 0:
             mask = cv2.compare(cv2.subtract(bi, fi), ti, cv2.CMP_GT)
         else:
-            mask = cv2.compare(cv2.absdiff(fi, bi), ti, cv2.CMP_GT)
-        # the rest only where something was detected (with the reach of the closing
-        # and the 2-pixel dilation below): the components are the same as over the whole
-        # region, at a fraction of the cost (a region is mostly background)
-        bx, by, bw, bh = cv2.boundingRect(mask)
-        m = _CROP_MARGIN
-        cx0, cy0 = max(0, bx - m), max(0, by - m)
-        cx1, cy1 = min(x1 - x0, bx + bw + m), min(y1 - y0, by + bh + m)
-        if bw == 0 or bh == 0:
-            cx1, cy1 = cx0, cy0
-        mask = mask[cy0:cy1, cx0:cx1]
+            mask = changed[cy0:cy1, cx0:cx1]
         strict = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, _K3) if mask.size else mask
         m8 = strict
-        if weak is not None and mask.size:
+        if weak is not None:
             # Where the straw's level is within the threshold of the background the
             # straw cannot be seen; such pixels next to a detection keep its parts in
             # one component (their coverage is filled in by measure()).
-            m8 = strict | (cv2.dilate(strict, _K5) & weak[cy0:cy1, cx0:cx1])
+            m8 = strict | (cv2.dilate(strict, _K5) & weak)
         if m8.size:
             n, labels, stats, cents = cv2.connectedComponentsWithStats(m8, connectivity=8)
         else:
@@ -294,11 +299,9 @@ class Region:
         -------
         Work
         """
-        st = self.stats
-        gx0 = min(int(st[k][0]) for k in group)
-        gy0 = min(int(st[k][1]) for k in group)
-        gx1 = max(int(st[k][0] + st[k][2]) for k in group)
-        gy1 = max(int(st[k][1] + st[k][3]) for k in group)
+        st = self.stats[group]
+        gx0, gy0 = int(st[:, 0].min()), int(st[:, 1].min())
+        gx1, gy1 = int((st[:, 0] + st[:, 2]).max()), int((st[:, 1] + st[:, 3]).max())
         m = int(math.ceil(margin))
         ox, oy = self.roi[0], self.roi[1]
         r0, s0, r1, s1 = self.bounds
@@ -315,10 +318,11 @@ class Region:
         labels = self._in_box(self.labels, fx0, fy0, fx1, fy1)
         if len(group) == 1:
             sel = labels == group[0]
-            others = (labels > 0) & ~sel
         else:
-            sel = np.isin(labels, group)
-            others = (labels > 0) & ~sel
+            lut = np.zeros(self.n, bool)
+            lut[group] = True
+            sel = lut[labels]
+        others = (labels > 0) & ~sel
         sel &= self._in_box(self.strict, fx0, fy0, fx1, fy1) > 0
         d = f - b
         den = np.float32(level) - b
