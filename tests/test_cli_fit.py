@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -185,18 +186,37 @@ def test_bad_runs_exit_2_with_one_line_and_no_fit(vidtrack_cli, tmp_path, two_vi
     assert not (run / "vidtrack" / "fit.json").exists()
 
 
+def _session_members(sid):
+    """Processes still alive in session ``sid`` (Linux /proc)."""
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[3]) == sid and fields[0] != "Z":
+            out.append(int(stat.parent.name))
+    return out
+
+
 def test_interrupted_fit_leaves_no_partial_file_and_reruns(tmp_path, two_view_run):
     import shutil
 
     run = tmp_path / "intr"
     shutil.copytree(two_view_run, run, ignore=shutil.ignore_patterns("vidtrack"))
     env = dict(os.environ, MPLBACKEND="Agg")
+    # a session of its own, and SIGINT to the whole group, as Ctrl-C in a terminal does:
+    # the worker process tracking the second view gets it too
     proc = subprocess.Popen([sys.executable, "-m", "vidtrack", "fit", str(run)], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
     time.sleep(1.5)
-    proc.send_signal(signal.SIGINT)
+    os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode in (0, 130), err
+    assert "Traceback" not in err and "leaked" not in err, err
+    time.sleep(0.5)
+    assert _session_members(proc.pid) == [], "a worker process outlived the command"
     out = run / "vidtrack"
     assert not [p for p in out.rglob("*") if p.name.endswith(".part")] if out.exists() else True
     if (out / "fit.json").exists():

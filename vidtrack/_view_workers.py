@@ -94,6 +94,15 @@ def _process_main(conn, scene, folder, name, settings, quiet, report):
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))
     try:
+        _work(conn, scene, folder, name, settings, quiet, report)
+    finally:
+        # done: a SIGTERM now (the caller stopping this process as it shuts down) ends
+        # it at once
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _work(conn, scene, folder, name, settings, quiet, report):
+    try:
         # the Track's fields, not the Track: this process never loads pandas (0.3 s)
         result = ("ok", track_view(scene, folder, name, settings, quiet=quiet, parts=True))
     except SystemExit:

