@@ -187,15 +187,16 @@ def test_bad_runs_exit_2_with_one_line_and_no_fit(vidtrack_cli, tmp_path, two_vi
 
 
 def _session_members(sid):
-    """Processes still alive in session ``sid`` (Linux /proc)."""
+    """Command lines of the processes still alive in session ``sid`` (Linux /proc)."""
     out = []
     for stat in Path("/proc").glob("[0-9]*/stat"):
         try:
             fields = stat.read_text().rsplit(")", 1)[1].split()
+            cmd = (stat.parent / "cmdline").read_bytes().replace(b"\0", b" ").decode()
         except OSError:
             continue
         if int(fields[3]) == sid and fields[0] != "Z":
-            out.append(int(stat.parent.name))
+            out.append(cmd)
     return out
 
 
@@ -215,8 +216,12 @@ def test_interrupted_fit_leaves_no_partial_file_and_reruns(tmp_path, two_view_ru
     _, err = proc.communicate(timeout=120)
     assert proc.returncode in (0, 130), err
     assert "Traceback" not in err and "leaked" not in err, err
-    # the worker is stopped before the command exits; multiprocessing's resource tracker
-    # leaves once the command's end closes its pipe: allow it a moment on a busy machine
+    # the worker is stopped before the command exits (left alone it would track on for
+    # seconds); multiprocessing's resource tracker leaves once the command's end closes
+    # its pipe: allow it a moment on a busy machine
+    time.sleep(0.3)
+    assert not [c for c in _session_members(proc.pid) if "spawn_main" in c], \
+        "the worker process outlived the command"
     deadline = time.monotonic() + 10.0
     while _session_members(proc.pid) and time.monotonic() < deadline:
         time.sleep(0.1)
