@@ -1,10 +1,12 @@
-"""Tracking a scene's second view beside the first: in a process or in a thread.
+"""Tracking one of a scene's two views beside the other: in a process or in a thread.
 
-Internal to :mod:`vidtrack.pipeline`. The command line tracks the second view in a
-spawned process (:class:`ViewProcess`): the two views then run truly at once on two
-cores. That process stays on as the report's renderer: while the calling process merges
-the views and fits, it loads matplotlib (about half a second it would otherwise add to
-the run), and then draws the report page it is sent. Library callers get a thread
+Internal to :mod:`vidtrack.pipeline`. The command line tracks the view with the larger
+footage in a spawned process (:class:`ViewProcess`): the two views then run truly at
+once on two cores, while the calling process also loads what the later stages need
+(:func:`preload_later_stages`). That process stays on as the report's renderer: while
+the calling process merges the views and fits, it loads matplotlib, draws the tracks
+plot of the merged tracks it is sent, then the page. It is sent arrays, never the fit
+or pandas objects, and so never loads scipy or pandas. Library callers get a thread
 (:class:`ViewThread`): spawning re-imports the caller's main module, which only a main
 module written for it (as the command line's is) survives; in a thread decoding and
 OpenCV's operations overlap, the tracker's Python does not.
@@ -39,7 +41,7 @@ def track_view(scene, folder, name, settings, *, quiet=True, cancel=None, parts=
                                                  **settings)
 
 
-#: What the stages after tracking import (about half a second of a run's start).
+#: What the stages after tracking import (about 0.8 s of CPU).
 LATER_STAGES = ("scipy.optimize", "h5py", "vidtrack.stereo", "vidtrack.tracks_io", "fits.lsq",
                 "vidtrack.fit_record")
 
@@ -57,10 +59,10 @@ def _import_all(names):
 def preload_later_stages():
     """Import :data:`LATER_STAGES` in a daemon thread while the views are tracked.
 
-    The tracker spends most of its time in decoding, which releases the GIL, and the
-    other core's process finishes its view first: the imports take time no one was
-    using. A stage importing a module already being loaded waits for it (the import
-    system's per-module lock).
+    The tracker spends most of its time decoding, which releases the GIL, and this
+    process has the smaller view: the imports take time it would otherwise spend
+    waiting for the worker. A stage importing a module still being loaded waits for it
+    (the import system's per-module lock).
     """
     import threading
 

@@ -96,17 +96,17 @@ def _read_stages(out_dir):
 def _track_views(scene, folder, options, timings):
     """Track every view of the scene in ``folder``.
 
-    With two views and ``options.threads`` above 1 the second view is tracked beside
-    the first (:mod:`vidtrack._view_workers`): in a process of its own when
-    ``options.view_process`` (the command line), else in a thread. If the first view
-    fails (or Ctrl-C), the other is stopped before the error goes on; if the other
-    fails, its error is raised here.
+    With two views and ``options.threads`` above 1 the view with the larger footage is
+    tracked beside the other (:mod:`vidtrack._view_workers`): in a process of its own
+    when ``options.view_process`` (the command line), else in a thread. If the view
+    tracked here fails (or Ctrl-C), the other is stopped before the error goes on; if
+    the other fails, its error is raised here.
 
     Returns
     -------
     (dict, ViewProcess or None)
-        {view: Track}, and the process that tracked the second view when it is kept to
-        draw the report (the caller stops it).
+        {view: Track}, and the worker process when it is kept to draw the report (the
+        caller stops it).
     """
     names = list(scene.view_names)
     t0 = time.perf_counter()
