@@ -89,89 +89,116 @@ def _warm_up_plots():
     _html.png_bytes(_html.figure(1, 1))   # fonts and the Agg canvas, once
 
 
-def _process_main(conn, scene, folder, name, settings, quiet, report):
-    """Body of the worker process: the view's Track, then the report page if asked."""
+def _process_main(conn):
+    """Body of the worker process: serve the jobs that come down ``conn`` until it closes."""
     # Ctrl-C reaches the whole process group: the caller stops this process itself, by
     # SIGTERM, on which it exits as from an error (finalisers run: no leaked semaphore)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))
     try:
-        _work(conn, scene, folder, name, settings, quiet, report)
+        _serve(conn)
     finally:
         # done: a SIGTERM now (the caller stopping this process as it shuts down) ends
         # it at once
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
-def _work(conn, scene, folder, name, settings, quiet, report):
-    try:
-        # the Track's fields, not the Track: this process never loads pandas (0.3 s)
-        result = ("ok", track_view(scene, folder, name, settings, quiet=quiet, parts=True))
-    except SystemExit:
-        raise
-    except BaseException as exc:   # re-raised in the caller
-        result = ("error", exc)
-    _send(conn, *result, f"tracking view {name}")
-    if result[0] != "ok" or not report:
-        return
-    _warm_up_plots()
-    from vidtrack.run_report import render_html, tracks_image
+def _serve(conn):
+    """Jobs: ``("track", scene, folder, name, settings, quiet, report)`` -> the Track's
+    fields; ``("views", columns)`` -> nothing (the tracks plot is drawn and kept);
+    ``("page", record, curves, world)`` -> report.html's text. A job's error goes back
+    in its place. After a track job with ``report`` matplotlib is loaded at once, while
+    the caller merges and fits (once per process: a run's throws share it)."""
+    warm, tracks_img = False, None
+    while True:
+        try:
+            job = conn.recv()
+        except EOFError:
+            return
+        kind, args = job[0], job[1:]
+        try:
+            if kind == "track":
+                scene, folder, name, settings, quiet, report = args
+                # the Track's fields, not the Track: this process never loads pandas
+                result = ("ok", track_view(scene, folder, name, settings, quiet=quiet,
+                                           parts=True))
+                _send(conn, *result, f"tracking view {name}")
+                if report and not warm:
+                    _warm_up_plots()
+                    warm = True
+                continue
+            from vidtrack.run_report import render_html, tracks_image
 
-    try:
-        views = conn.recv()                  # the merged tracks: drawn while the caller fits
-        tracks_img = tracks_image(views)
-        record, curves, world = conn.recv()
-        result = ("ok", render_html(record, world=world, curves=curves, tracks_img=tracks_img))
-    except EOFError:                         # the caller went on without a report
-        return
-    except SystemExit:
-        raise
-    except BaseException as exc:
-        result = ("error", exc)
-    _send(conn, *result, "drawing the report")
+            if kind == "views":
+                try:
+                    tracks_img = tracks_image(*args)
+                except Exception as exc:          # said with the page
+                    tracks_img = exc
+                continue
+            record, curves, world = args
+            if isinstance(tracks_img, Exception):
+                raise tracks_img
+            result = ("ok", render_html(record, world=world, curves=curves,
+                                        tracks_img=tracks_img))
+            tracks_img = None
+        except SystemExit:
+            raise
+        except BaseException as exc:              # re-raised in the caller
+            result = ("error", exc)
+        _send(conn, *result, f"the worker's {kind} job")
+
+
+class WorkerGone(RuntimeError):
+    """The worker process ended before answering (killed, out of memory, a crash)."""
 
 
 class ViewProcess:
-    """View ``name`` tracked in a spawned process, which then draws the report if asked.
+    """A spawned process that tracks views and draws their reports, job by job.
 
-    Parameters
-    ----------
-    scene, folder, name, settings, quiet
-        As :func:`track_view`.
-    report : bool
-        Keep the process for :meth:`render` after the track.
+    One serves all the throws of a run (spawning it and loading its libraries once).
+    :meth:`start` a view, take its :meth:`track`; for the report :meth:`send_tracks` the
+    merged tracks (the plot is drawn while the caller fits) and :meth:`render` the page.
     """
 
-    def __init__(self, scene, folder, name, settings, *, quiet=True, report=False):
+    def __init__(self):
         import multiprocessing
 
         ctx = multiprocessing.get_context("spawn")
-        self.name = name
+        self.name = None
         self.conn, child = ctx.Pipe()
-        self.proc = ctx.Process(target=_process_main, name=f"track-{name}", daemon=True,
-                                args=(child, scene, folder, name, settings, quiet, report))
+        self.proc = ctx.Process(target=_process_main, args=(child,), name="vidtrack-worker",
+                                daemon=True)
         self.proc.start()
         child.close()
 
-    def track(self):
-        """The view's Track (its error raised here)."""
+    def start(self, scene, folder, name, settings, *, quiet=True, report=False):
+        """Start tracking view ``name`` (:func:`track_view`'s arguments); ``report``:
+        load the plotting libraries after it, a report will be asked for."""
+        self.name = name
+        self.conn.send(("track", scene, folder, name, settings, quiet, report))
+
+    def _result(self, what):
         try:
             status, value = self.conn.recv()
         except EOFError:
             self.proc.join()
-            raise RuntimeError(f"the process tracking view {self.name} ended without a "
-                               f"result (exit code {self.proc.exitcode})") from None
+            raise WorkerGone(f"the worker process ended while {what} (exit code "
+                             f"{self.proc.exitcode})") from None
         if status != "ok":
             raise value
+        return value
+
+    def track(self):
+        """The view's Track (its error raised here)."""
         from vidtrack.tracker import Track
 
-        return Track.from_parts(value)
+        return Track.from_parts(self._result(f"tracking view {self.name}"))
 
     def send_tracks(self, views):
         """The merged tracks ({view: rows}), for the report's tracks plot (drawn now)."""
         try:
-            self.conn.send({n: _columns(d) for n, d in views.items()})
-        except OSError:                      # gone: render() will say so
+            self.conn.send(("views", {n: _columns(d) for n, d in views.items()}))
+        except OSError:                      # gone: render() will find out
             pass
 
     def render(self, record, *, fit, world):
@@ -181,13 +208,10 @@ class ViewProcess:
         try:
             # the curves, not the fit, and columns, not frames: the process loads neither
             # the fitting code nor pandas
-            self.conn.send((record, fit_curves(world, fit), _columns(world)))
-            status, value = self.conn.recv()
-        except (EOFError, OSError):
+            self.conn.send(("page", record, fit_curves(world, fit), _columns(world)))
+            return self._result("drawing the report")
+        except (WorkerGone, OSError):
             return None
-        if status != "ok":
-            raise value
-        return value
 
     def stop(self):
         """End the process (at once if it is still working) and wait for it."""

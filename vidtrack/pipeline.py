@@ -93,7 +93,7 @@ def _read_stages(out_dir):
         return {}
 
 
-def _track_views(scene, folder, options, timings):
+def _track_views(scene, folder, options, timings, workers):
     """Track every view of the scene in ``folder``.
 
     With two views and ``options.threads`` above 1 the view with the larger footage is
@@ -102,11 +102,13 @@ def _track_views(scene, folder, options, timings):
     tracked here fails (or Ctrl-C), the other is stopped before the error goes on; if
     the other fails, its error is raised here.
 
+    The worker process is taken from ``workers`` (a dict kept over a run's throws; the
+    caller stops what is in it), and put there when it is started here.
+
     Returns
     -------
     (dict, ViewProcess or None)
-        {view: Track}, and the worker process when it is kept to draw the report (the
-        caller stops it).
+        {view: Track}, and the worker process when it is to draw this report.
     """
     names = list(scene.view_names)
     t0 = time.perf_counter()
@@ -121,9 +123,12 @@ def _track_views(scene, folder, options, timings):
                                                                  folder)))
         names.remove(name)
         if options.view_process:
-            other = ViewProcess(scene, folder, name, TRACKER_SETTINGS, quiet=options.quiet,
-                                report=options.report)
-            preload_later_stages()
+            if "process" not in workers:
+                workers["process"] = ViewProcess()
+                preload_later_stages()
+            other = workers["process"]
+            other.start(scene, folder, name, TRACKER_SETTINGS, quiet=options.quiet,
+                        report=options.report)
         else:
             other = ViewThread(scene, folder, name, TRACKER_SETTINGS, quiet=options.quiet)
     try:
@@ -132,18 +137,20 @@ def _track_views(scene, folder, options, timings):
                                       quiet=options.quiet)
         if other is not None:
             tracks[other.name] = other.track()
-            keep = options.report and isinstance(other, ViewProcess)
+            keep = isinstance(other, ViewProcess)
     finally:
         if other is not None and not keep:
             other.stop()
     timings["track"] = time.perf_counter() - t0
-    return {n: tracks[n] for n in scene.view_names}, (other if keep else None)
+    return ({n: tracks[n] for n in scene.view_names},
+            other if keep and options.report else None)
 
 
 def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers):
     """Tracks and the world track: reused from tracks.h5 when nothing changed.
 
-    A worker process kept to draw the report is appended to ``workers``.
+    Returns the tracks' key, the tracks, the world track, whether they were reused, and
+    the worker process that is to draw the report (or None).
     """
     key = _digest({"version": __version__, "scene": scene.hash, "tracker": TRACKER_SETTINGS,
                    "sources": {n: _file_fingerprint(source_of(v, scene, folder))
@@ -156,10 +163,8 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers):
         tf = read_tracks(h5)
         if tf.world is not None:
             timings["tracks_reused"] = time.perf_counter() - t0
-            return key, tf.tracks, tf.world, True
-    tracks, helper = _track_views(scene, folder, options, timings)
-    if helper is not None:
-        workers.append(helper)
+            return key, tf.tracks, tf.world, True, None
+    tracks, helper = _track_views(scene, folder, options, timings, workers)
     from vidtrack.stereo import merge_tracks
     from vidtrack.tracks_io import write_tracks
 
@@ -174,7 +179,7 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers):
         helper.send_tracks({n: tr.data for n, tr in tracks.items()})
     write_tracks(h5, tracks, world, scene_hash=scene.hash,
                  calibration={n: v.to_dict() for n, v in scene.views.items()})
-    return key, tracks, world, False
+    return key, tracks, world, False, helper
 
 
 def _check_cp(scene, options):
@@ -188,27 +193,26 @@ def _check_cp(scene, options):
     return cp
 
 
-def fit_throw_folder(scene, folder, out_dir, options):
+def fit_throw_folder(scene, folder, out_dir, options, workers=None):
     """Track, merge and fit one throw (the run folder or one of its throws/ folders).
 
+    ``workers``: a dict holding the worker process across a run's throws (the caller
+    stops it: :func:`_stop_workers`); without it one is started and stopped here.
     Returns the fit.json record written to ``out_dir``.
     """
+    if workers is None:
+        workers = {}
+        try:
+            return fit_throw_folder(scene, folder, out_dir, options, workers)
+        finally:
+            _stop_workers(workers)
     out_dir = Path(out_dir)
     _check_sources(scene, folder)
-    workers = []
-    try:
-        return _fit_throw(scene, folder, out_dir, options, workers)
-    finally:
-        for w in workers:
-            w.stop()
-
-
-def _fit_throw(scene, folder, out_dir, options, workers):
     stages = _read_stages(out_dir)
     timings = {}
     t_start = time.perf_counter()
-    tracks_key, tracks, world, reused = _tracks_stage(scene, folder, out_dir, options,
-                                                      timings, stages, workers)
+    tracks_key, tracks, world, reused, helper = _tracks_stage(
+        scene, folder, out_dir, options, timings, stages, workers)
     import numpy as np
 
     from fits.errors import ConvergenceError
@@ -250,7 +254,7 @@ def _fit_throw(scene, folder, out_dir, options, workers):
         views = {n: tr.data for n, tr in tracks.items()}
         # drawn by the process that tracked the second view, if it is there (it loaded
         # matplotlib and drew the tracks plot while this one fitted)
-        html = workers[0].render(record, fit=fit, world=world.data) if workers else None
+        html = helper.render(record, fit=fit, world=world.data) if helper else None
         write_run_report(out_dir, record, fit=fit, world=world.data, views=views, html=html)
         timings["report"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - t_start
@@ -259,6 +263,11 @@ def _fit_throw(scene, folder, out_dir, options, workers):
     write_text(out_dir / STAGES_FILE, json.dumps({"tracks": tracks_key, "fit": fit_key},
                                                  indent=2) + "\n")
     return record
+
+
+def _stop_workers(workers):
+    for w in workers.values():
+        w.stop()
 
 
 def fit_run(run_dir, options=FitOptions()):
@@ -274,7 +283,12 @@ def fit_run(run_dir, options=FitOptions()):
     from vidtrack.run_report import write_run_report
 
     t0 = time.perf_counter()
-    records = [fit_throw_folder(scene, d, out / d.name, options) for d in throws]
+    workers = {}                     # one worker process serves all the throws
+    try:
+        records = [fit_throw_folder(scene, d, out / d.name, options, workers)
+                   for d in throws]
+    finally:
+        _stop_workers(workers)
     record = mean_record(scene, records, timings_s={
         "throws_total": time.perf_counter() - t0})
     if options.report:
