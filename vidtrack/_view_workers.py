@@ -6,7 +6,8 @@ once on two cores, while the calling process also loads what the later stages ne
 (:func:`preload_later_stages`). That process stays on as the report's renderer: while
 the calling process merges the views and fits, it loads matplotlib, draws the tracks
 plot of the merged tracks it is sent, then the page. It is sent arrays, never the fit
-or pandas objects, and so never loads scipy or pandas. Library callers get a thread
+or pandas objects, and so never loads scipy or pandas. One such process serves all
+the throws of a run, job by job (:func:`_serve`). Library callers get a thread
 (:class:`ViewThread`): spawning re-imports the caller's main module, which only a main
 module written for it (as the command line's is) survives; in a thread decoding and
 OpenCV's operations overlap, the tracker's Python does not.
