@@ -414,11 +414,10 @@ class VideoSource(FrameSource):
                               "unsupported video)")
         self._cursor = 1
         grey = to_grey(image)
-        self._luma = self._luma_matches(grey)
-        if self._luma:                 # every capture from here on gives the plane
+        raw = self._luma_capture(grey)
+        if raw is not None:            # every capture from here on gives the plane
             self._cap.release()
-            self._cap = self._open_capture()
-            self._cursor = 0
+            self._cap, self._luma = raw, True
         self._shape = tuple(grey.shape)
         self._dtype = grey.dtype
         self._bit_depth = 8 * grey.dtype.itemsize
@@ -445,24 +444,22 @@ class VideoSource(FrameSource):
             cap.set(cv2.CAP_PROP_CONVERT_RGB, 0)
         return cap
 
-    def _luma_matches(self, grey):
-        """Whether the decoder's raw frame 0 is its luma plane, equal to ``grey`` (+-1)."""
+    def _luma_capture(self, grey):
+        """A capture giving raw frames, past frame 0, if the decoder's raw frame 0 is its
+        luma plane, equal to ``grey`` (frame 0 decoded to BGR and converted) to +-1;
+        else None."""
         cv2 = _cv2()
         if grey.dtype != np.uint8:
-            return False
+            return None
         cap = self._open_capture()
-        try:
-            if not cap.set(cv2.CAP_PROP_CONVERT_RGB, 0):
-                return False
-            ok, raw = cap.read()
-        finally:
-            cap.release()
+        ok, raw = cap.read() if cap.set(cv2.CAP_PROP_CONVERT_RGB, 0) else (False, None)
         rows, cols = grey.shape
-        if (not ok or raw is None or raw.dtype != np.uint8 or raw.ndim != 2
-                or raw.shape[1] != cols or raw.shape[0] < rows):
-            return False
-        diff = cv2.absdiff(raw[:rows], grey)
-        return int(diff.max()) <= 1
+        if (ok and raw is not None and raw.dtype == np.uint8 and raw.ndim == 2
+                and raw.shape[1] == cols and raw.shape[0] >= rows
+                and int(cv2.absdiff(raw[:rows], grey).max()) <= 1):
+            return cap
+        cap.release()
+        return None
 
     def _count_frames(self):
         cap = self._open_capture()
