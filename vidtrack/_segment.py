@@ -214,16 +214,17 @@ class Segmenter:
         # part of ``changed``.
         changed = cv2.compare(cv2.absdiff(fi, bi), ti, cv2.CMP_GT)
         bx, by, bw, bh = cv2.boundingRect(changed)
+        if bw == 0 or bh == 0:                    # nothing changed: no components
+            empty = np.zeros((0, 0), np.uint8)
+            return Region(roi=(x0, y0, x0, y0), bounds=roi, frame=frame, seg=self,
+                          gain=gain, labels=empty, stats=np.zeros((1, 5), np.int32),
+                          centroids=np.zeros((1, 2)), n=1, strict=empty)
         m = _CROP_MARGIN
         cx0, cy0 = max(0, bx - m), max(0, by - m)
         cx1, cy1 = min(x1 - x0, bx + bw + m), min(y1 - y0, by + bh + m)
-        if bw == 0 or bh == 0:
-            cx1, cy1 = cx0, cy0
         fi, bi, ti = (a[cy0:cy1, cx0:cx1] for a in (fi, bi, ti))
         weak = None
-        if not fi.size:
-            mask = changed[cy0:cy1, cx0:cx1]
-        elif level is not None and np.isfinite(level):
+        if level is not None and np.isfinite(level):
             pos = cv2.compare(cv2.subtract(fi, bi), ti, cv2.CMP_GT)
             neg = cv2.compare(cv2.subtract(bi, fi), ti, cv2.CMP_GT)
             up = cv2.compare(bi, float(level), cv2.CMP_LT)
@@ -236,17 +237,14 @@ class Segmenter:
             mask = cv2.compare(cv2.subtract(bi, fi), ti, cv2.CMP_GT)
         else:
             mask = changed[cy0:cy1, cx0:cx1]
-        strict = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, _K3) if mask.size else mask
+        strict = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, _K3)
         m8 = strict
         if weak is not None:
             # Where the straw's level is within the threshold of the background the
             # straw cannot be seen; such pixels next to a detection keep its parts in
             # one component (their coverage is filled in by measure()).
             m8 = strict | (cv2.dilate(strict, _K5) & weak)
-        if m8.size:
-            n, labels, stats, cents = cv2.connectedComponentsWithStats(m8, connectivity=8)
-        else:
-            n, labels, stats, cents = 1, m8, np.zeros((1, 5), np.int32), np.zeros((1, 2))
+        n, labels, stats, cents = cv2.connectedComponentsWithStats(m8, connectivity=8)
         return Region(roi=(x0 + cx0, y0 + cy0, x0 + cx1, y0 + cy1), bounds=roi, frame=frame,
                       seg=self, gain=gain, labels=labels, stats=stats, centroids=cents, n=n,
                       strict=strict)
