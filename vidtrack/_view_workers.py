@@ -110,43 +110,44 @@ def _serve(conn):
     ``("page", record, curves, world)`` -> report.html's text. A job's error goes back
     in its place. After a track job with ``report`` matplotlib is loaded at once, while
     the caller merges and fits (once per process: a run's throws share it)."""
+    from vidtrack.run_report import render_html, tracks_image
+
     warm, tracks_img = False, None
     while True:
         try:
-            job = conn.recv()
+            kind, *args = conn.recv()
         except EOFError:
             return
-        kind, args = job[0], job[1:]
+        if kind == "views":                       # no answer: kept for the page
+            try:
+                tracks_img = tracks_image(*args)
+            except Exception as exc:              # said with the page
+                tracks_img = exc
+            continue
         try:
             if kind == "track":
                 scene, folder, name, settings, quiet, report = args
                 # the Track's fields, not the Track: this process never loads pandas
-                result = ("ok", track_view(scene, folder, name, settings, quiet=quiet,
-                                           parts=True))
-                _send(conn, *result, f"tracking view {name}")
-                if report and not warm:
-                    _warm_up_plots()
-                    warm = True
-                continue
-            from vidtrack.run_report import render_html, tracks_image
-
-            if kind == "views":
-                try:
-                    tracks_img = tracks_image(*args)
-                except Exception as exc:          # said with the page
-                    tracks_img = exc
-                continue
-            record, curves, world = args
-            if isinstance(tracks_img, Exception):
-                raise tracks_img
-            result = ("ok", render_html(record, world=world, curves=curves,
-                                        tracks_img=tracks_img))
-            tracks_img = None
+                value = track_view(scene, folder, name, settings, quiet=quiet, parts=True)
+            else:
+                record, curves, world = args
+                if isinstance(tracks_img, Exception):
+                    raise tracks_img
+                value = render_html(record, world=world, curves=curves,
+                                    tracks_img=tracks_img)
+                tracks_img = None
+            result = ("ok", value)
         except SystemExit:
             raise
         except BaseException as exc:              # re-raised in the caller
             result = ("error", exc)
         _send(conn, *result, f"the worker's {kind} job")
+        if kind == "track" and result[0] == "ok" and report and not warm:
+            try:
+                _warm_up_plots()
+            except Exception:                     # noqa: S110 (the page will say)
+                pass
+            warm = True
 
 
 class WorkerGone(RuntimeError):
