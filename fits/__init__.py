@@ -4,9 +4,9 @@ Modules (import what you use; ``import fits`` stays light):
 
 - ``fits.throw``: ``position``, ``velocity``, ``apex``, ``terminal_speed``,
   ``flight_y``, ``flight_drag`` (stable closed forms; Chen 2018 eqs. 11-18, Liao 2021,
-  Hou 2019); ``fits.throw_ode.solve_throw`` (the ODE reference);
-  ``fits.throw_printed.printed_position`` (the printed forms, for comparison);
-  ``fits.throw_mp.position_mp`` (50-digit truth).
+  Hou 2019); ``fits.throw.ode.solve_throw`` (the ODE reference);
+  ``fits.throw.printed.printed_position`` (the printed forms, for comparison);
+  ``fits.throw.mp.position_mp`` (50-digit truth).
 - ``fits.blade``: the slide along the blade and the release (eqs. 1-10).
 - ``fits.lsq``: ``fit_throw``, ``compare_models`` (least squares of a world track).
 - ``fits.rsm``: ``Factor``, ``fit_rsm``, ``read_table`` (response surfaces, Table 3).

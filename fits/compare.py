@@ -25,8 +25,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from fits._rsm_table import match_name
-from fits._rsm_text import format_table
+from fits.rsm._table import match_name
+from fits.rsm._text import format_table
 from fits.errors import InputError
 
 __all__ = ["Comparison", "ComparisonRow", "compare", "printed_unit", "read_published"]

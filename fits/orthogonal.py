@@ -23,11 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fits._rsm_stats import AnovaRow, f_row, least_squares, ratio, studentized_external
-from fits._rsm_table import (label_column, numeric_column, require_columns, run_labels,
+from fits.rsm._stats import AnovaRow, f_row, least_squares, ratio, studentized_external
+from fits.rsm._table import (label_column, numeric_column, require_columns, run_labels,
                              source_of)
-from fits._rsm_terms import estimable_columns
-from fits._rsm_text import fmt_f, fmt_num, fmt_p, format_table
+from fits.rsm._terms import estimable_columns
+from fits.rsm._text import fmt_f, fmt_num, fmt_p, format_table
 from fits.errors import InputError
 
 __all__ = ["OrthogonalFit", "RangeAnalysis", "fit_orthogonal", "parse_interaction"]

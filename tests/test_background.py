@@ -8,10 +8,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from rod_render import compose, rod_coverage, texture
 
-from vidtrack.background import (estimate_background, measure_noise, median_images,
+from vidtrack.track.background import (estimate_background, measure_noise, median_images,
                                  sample_background, sample_indices)
 from vidtrack.errors import TrackError
-from vidtrack.frames import open_source
+from vidtrack.footage.frames import open_source
 
 
 @settings(max_examples=40, deadline=None)

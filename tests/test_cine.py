@@ -7,11 +7,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vidtrack.cine import (CineSource, pack_10bit, pack_12bit, unpack_10bit, unpack_12bit,
+from vidtrack.footage.cine import (CineSource, pack_10bit, pack_12bit, unpack_10bit, unpack_12bit,
                            write_cine)
 from vidtrack.errors import SourceError
-from vidtrack.frames import open_source
-from vidtrack.timebase import check_time_base, check_time_stamps
+from vidtrack.footage.frames import open_source
+from vidtrack.footage.timebase import check_time_base, check_time_stamps
 
 REAL = "data/cine/cine_legacy.cine"
 

@@ -245,7 +245,7 @@ def test_a_fit_that_does_not_converge_says_why_and_leaves_no_fit(vidtrack_cli, t
     the earlier fit.json and reports are gone, not left to stand for this fit."""
     import shutil
 
-    from vidtrack.tracks_io import read_tracks, write_tracks
+    from vidtrack.run.tracks_file import read_tracks, write_tracks
 
     run = tmp_path / "nofit"
     shutil.copytree(two_view_run, run, ignore=shutil.ignore_patterns("vidtrack"))

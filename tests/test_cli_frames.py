@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from vidtrack.cine import write_cine
+from vidtrack.footage.cine import write_cine
 
 
 def read_csv(path):

@@ -10,7 +10,7 @@ import pytest
 from fits.lsq import fit_throw
 from fits.throw import position
 from vidtrack.experiment import analyse, coefficient_table, write_outputs
-from vidtrack.fit_record import throw_record
+from vidtrack.run.fit_record import throw_record
 from vidtrack.scene import load_experiment, parse_scene
 
 DESIGN = pd.read_csv(__import__("pathlib").Path(__file__).resolve().parents[1]

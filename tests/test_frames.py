@@ -11,9 +11,9 @@ import cv2
 import numpy as np
 import pytest
 
-from vidtrack.cine import write_cine
+from vidtrack.footage.cine import write_cine
 from vidtrack.errors import SourceError
-from vidtrack.frames import (ImageFolderSource, VideoSource, natural_key, open_source,
+from vidtrack.footage.frames import (ImageFolderSource, VideoSource, natural_key, open_source,
                              to_grey)
 
 ROWS, COLS, N = 48, 64, 20

@@ -8,7 +8,7 @@ from correlated_noise import ou_series
 from fits.errors import InputError
 from fits.lsq import compare_models, fit_throw
 from fits.throw import position
-from fits.throw_ode import solve_throw
+from fits.throw.ode import solve_throw
 
 STATE = (0.25, 0.15, 0.0, 7.0, 4.5, 2.0)
 K = (2.2, 2.5, 4.6, 21.3)

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fits._rsm_terms import model_matrix, natural_expansion, second_order_terms
+from fits.rsm._terms import model_matrix, natural_expansion, second_order_terms
 from fits.compare import compare, printed_unit, read_published
 from fits.errors import InputError
 from fits.rsm import AliasedTermWarning, Factor, code_factors, fit_rsm, read_table

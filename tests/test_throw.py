@@ -1,6 +1,6 @@
 """fits.throw against truth it did not make: a tight ODE solution, exact limits, the paper.
 
-The reference is ``fits.throw_ode.solve_throw`` at rtol 1e-12 (solve_ivp, one smooth law
+The reference is ``fits.throw.ode.solve_throw`` at rtol 1e-12 (solve_ivp, one smooth law
 per flight phase, the apex as an event): DOP853 where the problem is not stiff, LSODA
 with the exact Jacobian where an explicit method could not reach the end (Radau agrees
 with it to 1e-12 there, at a hundred times the cost).
@@ -13,8 +13,8 @@ from hypothesis import strategies as hs
 
 from fits.errors import InputError
 from fits.throw import G_STANDARD, apex, position, terminal_speed, velocity
-from fits.throw_ode import solve_throw
-from fits.throw_printed import printed_position
+from fits.throw.ode import solve_throw
+from fits.throw.printed import printed_position
 
 G = G_STANDARD
 PAPER_STATE = (0.25, 0.15, 0.0, 7.0, 4.5, 2.0)

@@ -9,14 +9,14 @@ from rod_render import compose, rod_coverage, texture
 from synth_runs import centroid_errors, synth_run, view_truth
 
 from fits.throw import position
-from vidtrack import _refine
-from vidtrack.background import Background
+from vidtrack.track import _refine
+from vidtrack.track.background import Background
 from vidtrack.errors import TrackError
-from vidtrack.frames import open_source
+from vidtrack.footage.frames import open_source
 from vidtrack.synth import SynthSpec, straw_pose
-from vidtrack.tracker import (BLADE, BORDER, FLAGS, LOST, MERGED, PRE_RELEASE, PREDICTED,
+from vidtrack.track.tracker import (BLADE, BORDER, FLAGS, LOST, MERGED, PRE_RELEASE, PREDICTED,
                               TRACK_COLUMNS, _release_evidence, describe_flags, track)
-from vidtrack._segment import Segmenter, measure, read_level, work_margin
+from vidtrack.track._segment import Segmenter, measure, read_level, work_margin
 
 
 def _track_view(folder, view, **kw):

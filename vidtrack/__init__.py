@@ -1,20 +1,26 @@
 """vidtrack: high-speed footage of a thrown straw to k1..k4 and the published ANOVA.
 
-The package that touches footage and the user; the only one that imports the other
-two (``fits`` for numbers, ``calibration`` for pixels to metres). Modules:
+The package that touches footage and the user; the only one that imports the other two
+(``fits`` for numbers, ``calibration`` for pixels to metres). Its sub-packages follow the
+data, each importing only those before it (docs/architecture.md):
 
-- ``vidtrack.frames``: ``open_source`` (videos, image folders, Phantom .cine via
-  ``vidtrack.cine``), ``export_frames``; ``vidtrack.timebase``: time-base checks.
-- ``vidtrack.scene``: ``load_scene``, ``write_scene``, ``load_experiment``.
-- ``vidtrack.tracker``: ``track`` -> ``Track``; ``vidtrack.stereo``: ``merge_tracks``;
-  ``vidtrack.tracks_io``: ``write_tracks``, ``read_tracks``.
-- ``vidtrack.pipeline``: ``fit_run``, ``fit_runs`` (what ``vidtrack fit`` runs);
-  ``vidtrack.experiment``: the coefficient table and its analysis.
-- ``vidtrack.synth``: ``render_run`` (synthetic runs with known truth);
-  ``vidtrack.predict``: ``predict``.
-- reports: ``vidtrack.run_report``, ``vidtrack.anova_report``; benchmarks:
-  ``vidtrack.bench``; the command line: ``vidtrack.cli``.
+- ``vidtrack.footage``: frame sources (videos, image folders, Phantom .cine), the time
+  base, frame export;
+- ``vidtrack.track``: one view's footage to a per-frame ``Track``;
+- ``vidtrack.world``: the views to a ``WorldTrack`` in metres (the orthogonal merge);
+- ``vidtrack.report``: the run page and the ANOVA page;
+- ``vidtrack.run``: ``fit_run``/``fit_runs`` (what ``vidtrack fit`` runs), the stage cache,
+  tracks.h5 and fit.json;
+- ``vidtrack.experiment``: many runs to the coefficient table and its ANOVA;
+- ``vidtrack.synth``: synthetic runs with known truth; ``vidtrack.predict``: the forward
+  model from settings to a throw;
+- ``vidtrack.scene`` (scene.toml, experiment.toml) and ``vidtrack.errors`` serve them all;
+  ``vidtrack.bench`` and ``vidtrack.cli`` sit on top.
 """
+
+from vidtrack import _moved
+
+_moved.install()
 
 __version__ = "0.1.0"
 

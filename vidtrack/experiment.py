@@ -80,7 +80,7 @@ def write_outputs(out_dir, experiment, table, fits, *, notes=()):
     """coefficients.csv, anova.json and report.html in ``out_dir`` (each atomically)."""
     import json
 
-    from vidtrack.anova_report import write_anova_report
+    from vidtrack.report.anova_page import write_anova_report
 
     out_dir = Path(out_dir)
     with atomic_path(out_dir / "coefficients.csv") as tmp:

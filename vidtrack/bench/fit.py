@@ -132,9 +132,9 @@ def run_fit_bench(out_dir, *, quick=False, seeds=None):
     ``kN_coverage`` is the fraction of seeds whose 95 % interval covers the truth.
     """
     from fits.lsq import fit_throw
-    from vidtrack.pipeline import FitOptions, fit_run
+    from vidtrack.run.pipeline import FitOptions, fit_run
     from vidtrack.scene import load_scene
-    from vidtrack.tracks_io import read_tracks
+    from vidtrack.run.tracks_file import read_tracks
 
     out_dir = Path(out_dir)
     seeds = seeds or ((1, 2) if quick else tuple(range(1, 11)))
@@ -211,7 +211,7 @@ def run_fit_bench(out_dir, *, quick=False, seeds=None):
 
 
 def _plot(summary, path):
-    from vidtrack._html import figure
+    from vidtrack.report._html import figure
 
     fig = figure(10, 4)
     a, b = fig.subplots(1, 2)

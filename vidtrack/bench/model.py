@@ -4,12 +4,12 @@ Three cases (typical: k like Chen 2018's, Cp = 0.115 s/m; stiff: k4 = 2000, Cp =
 extreme: Cp = 1e-9 s/m and a 100 s descent), each evaluated by
 
 - the closed form of ``fits.throw`` (what vidtrack uses),
-- Chen 2018 eqs. 12-18 evaluated as printed (``fits.throw_printed``),
+- Chen 2018 eqs. 12-18 evaluated as printed (``fits.throw.printed``),
 - ``scipy.integrate.solve_ivp`` with RK45, DOP853, Radau, BDF and LSODA at rtol
   1e-3, 1e-6, 1e-9 and 1e-12 (atol = 1e-3 rtol, in metres; exact Jacobian for the
   implicit methods),
 
-against truth from ``fits.throw_mp`` (the textbook solution at 50 significant digits).
+against truth from ``fits.throw.mp`` (the textbook solution at 50 significant digits).
 One evaluation is the whole trajectory at the case's time points. ``max_rel_error`` is
 the max error over the largest coordinate of the trajectory (the extreme case falls
 about 1.2e5 m, where float64 rounding alone is 1e-11 m).
@@ -22,9 +22,9 @@ import numpy as np
 import pandas as pd
 
 from fits.throw import position
-from fits.throw_mp import position_mp
-from fits.throw_ode import solve_throw
-from fits.throw_printed import printed_position
+from fits.throw.mp import position_mp
+from fits.throw.ode import solve_throw
+from fits.throw.printed import printed_position
 from vidtrack.bench._timing import median_time
 
 ODE_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")

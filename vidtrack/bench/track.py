@@ -5,7 +5,7 @@ flying over a textured background with machine parts and a ruler; read noise, mo
 blur, MJPG compression) is read by four methods, each timed on the same file:
 
 - ``decode only``: iterating the frames and doing nothing (the limit any tracker has);
-- ``vidtrack``: :func:`vidtrack.tracker.track`, background included, every frame;
+- ``vidtrack``: :func:`vidtrack.track.tracker.track`, background included, every frame;
 - ``trackpy.locate``: the feature finder of trackpy (bandpass + centroid of mass in a
   disc of the straw's length), the feature nearest the previous position each frame;
 - ``opencv <name>``: an OpenCV single-object tracker (CSRT or KCF when this OpenCV has
@@ -87,7 +87,7 @@ def _score(pos, per_frame, clean, ran):
 
 
 def _decode(path, fps):
-    from vidtrack.frames import open_source
+    from vidtrack.footage.frames import open_source
 
     t0 = time.perf_counter()
     with open_source(path, fps=fps) as src:
@@ -98,8 +98,8 @@ def _decode(path, fps):
 
 
 def _ours(path, fps):
-    from vidtrack.frames import open_source
-    from vidtrack.tracker import track
+    from vidtrack.footage.frames import open_source
+    from vidtrack.track.tracker import track
 
     t0 = time.perf_counter()
     with open_source(path, fps=fps) as src:
@@ -120,7 +120,7 @@ def _trackpy(path, fps, per_frame, start, count, length_px):
 
     import trackpy
 
-    from vidtrack.frames import open_source
+    from vidtrack.footage.frames import open_source
 
     trackpy.quiet()
     diameter = 2 * int(math.ceil(0.5 * length_px)) + 3
@@ -151,7 +151,7 @@ def _trackpy(path, fps, per_frame, start, count, length_px):
 
 
 def _opencv(path, fps, per_frame, start, count, length_px):
-    from vidtrack.frames import open_source
+    from vidtrack.footage.frames import open_source
 
     name, factory = opencv_tracker()
     n = len(per_frame)

@@ -93,7 +93,7 @@ def _split(values):
 
 def _interactions_for(specs, response, responses):
     """The interactions that apply to ``response`` from ``[RESPONSE=]a:b`` specs."""
-    from fits._rsm_table import match_name
+    from fits.rsm._table import match_name
     from fits.errors import InputError
     from fits.orthogonal import parse_interaction
 
@@ -170,7 +170,7 @@ def run(args):
     fits, warnings_ = _fit_all(args, table, responses)
     comparisons = [compare(fits, p) for p in published]
     if args.report:
-        from vidtrack.anova_report import write_anova_report
+        from vidtrack.report.anova_page import write_anova_report
         try:
             write_anova_report(args.report, fits, comparisons=comparisons,
                                source=str(args.table))

@@ -74,7 +74,7 @@ def run(args):
     import sys
 
     from vidtrack.errors import VidtrackError
-    from vidtrack.pipeline import FitOptions, find_runs, fit_runs
+    from vidtrack.run.pipeline import FitOptions, find_runs, fit_runs
 
     if args.jobs < 1:
         raise VidtrackError(f"--jobs must be >= 1, got {args.jobs}")

@@ -68,8 +68,8 @@ def run(args):
     import sys
 
     from vidtrack.errors import VidtrackError
-    from vidtrack.frames import export_frames, open_source
-    from vidtrack.timebase import check_time_base
+    from vidtrack.footage.frames import export_frames, open_source
+    from vidtrack.footage.timebase import check_time_base
 
     frames = _parse_range(args.range)
     if args.every < 1:

@@ -33,7 +33,7 @@ def run(args):
 
     from vidtrack.errors import VidtrackError
     from vidtrack.experiment import analyse, coefficient_table, write_outputs
-    from vidtrack.pipeline import FitOptions, fit_runs
+    from vidtrack.run.pipeline import FitOptions, fit_runs
     from vidtrack.scene import load_experiment
 
     if not 0 < args.alpha < 1:

@@ -9,9 +9,9 @@ from hypothesis import strategies as st
 
 from vidtrack import __version__
 from vidtrack.errors import TrackError
-from vidtrack.stereo import WorldTrack
-from vidtrack.tracker import TRACK_COLUMNS, Track
-from vidtrack.tracks_io import read_tracks, write_tracks
+from vidtrack.world.orthogonal import WorldTrack
+from vidtrack.track.tracker import TRACK_COLUMNS, Track
+from vidtrack.run.tracks_file import read_tracks, write_tracks
 
 
 def _track(view, n, rng, *, release=5):

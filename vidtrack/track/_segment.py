@@ -1,6 +1,6 @@
 """Segmentation of moving objects against the background, and the coverage measurement.
 
-Internal to :mod:`vidtrack.tracker`. Two ways to look at a frame:
+Internal to :mod:`vidtrack.track.tracker`. Two ways to look at a frame:
 
 - :meth:`Segmenter.coarse`: the whole frame, cheaply (integer absolute difference,
   per-pixel threshold, block-reduced before the connected components), used only while
@@ -81,7 +81,7 @@ class Segmenter:
 
     Parameters
     ----------
-    background : vidtrack.background.Background
+    background : vidtrack.track.background.Background
     k_sigma : float
         Threshold in multiples of the noise.
     """

@@ -47,9 +47,9 @@ class TracksFile:
 
     Attributes
     ----------
-    tracks : dict of str to vidtrack.tracker.Track
+    tracks : dict of str to vidtrack.track.tracker.Track
         The views in the file.
-    world : vidtrack.stereo.WorldTrack or None
+    world : vidtrack.world.orthogonal.WorldTrack or None
         The world track, when the file has one.
     vidtrack_version, scene_hash : str
         Root attributes.
@@ -101,9 +101,9 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
     path : str or os.PathLike
         The file to write (its folder is created); an existing file is replaced only
         when the new one is complete.
-    tracks : dict of str to vidtrack.tracker.Track
+    tracks : dict of str to vidtrack.track.tracker.Track
         ``front`` and/or ``top``.
-    world : vidtrack.stereo.WorldTrack, optional
+    world : vidtrack.world.orthogonal.WorldTrack, optional
         The merged world track.
     scene_hash : str, keyword-only
         ``Scene.hash`` of the scene the tracks came from.
@@ -119,12 +119,12 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
     ------
     TrackError
         An unknown view name, or a track without the columns of
-        :data:`vidtrack.tracker.TRACK_COLUMNS`.
+        :data:`vidtrack.track.tracker.TRACK_COLUMNS`.
     """
     import h5py
 
     from vidtrack import __version__
-    from vidtrack.tracker import FLAGS, TRACK_COLUMNS
+    from vidtrack.track.tracker import FLAGS, TRACK_COLUMNS
 
     path = Path(path)
     for v, tr in tracks.items():
@@ -208,8 +208,8 @@ def read_tracks(path):
     """
     import h5py
 
-    from vidtrack.stereo import WorldTrack
-    from vidtrack.tracker import TRACK_COLUMNS, Track
+    from vidtrack.world.orthogonal import WorldTrack
+    from vidtrack.track.tracker import TRACK_COLUMNS, Track
 
     path = Path(path)
     if not path.is_file():

@@ -31,15 +31,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from fits._rsm_stats import (AnovaRow, CanonicalAnalysis, canonical_analysis, f_row,
+from fits.rsm._stats import (AnovaRow, CanonicalAnalysis, canonical_analysis, f_row,
                              least_squares, pure_error, ratio, replicate_groups,
                              studentized_external, term_pvalues)
-from fits._rsm_table import (numeric_column, read_table, require_columns, run_labels,
+from fits.rsm._table import (numeric_column, read_table, require_columns, run_labels,
                              source_of)
-from fits._rsm_terms import (INTERCEPT, estimable_columns, model_matrix,
+from fits.rsm._terms import (INTERCEPT, estimable_columns, model_matrix,
                              natural_expansion, parse_term, protected_by_hierarchy,
                              second_order_terms, sorted_terms, term_name)
-from fits._rsm_text import fmt_f, fmt_num, fmt_p, format_table
+from fits.rsm._text import fmt_f, fmt_num, fmt_p, format_table
 from fits.errors import InputError
 
 __all__ = ["AliasedTermWarning", "AnovaRow", "CanonicalAnalysis", "EliminationStep",
@@ -485,7 +485,7 @@ def fit_rsm(table, response, factors, *, terms=None, alpha=0.05, eliminate=True,
     (max yhat - min yhat) / sqrt(p MS_res / n). Condition numbers are the ratio of the
     largest to the smallest singular value of the model matrix (coded and natural).
     Natural coefficients: exact binomial expansion of the coded polynomial (Chen 2018,
-    Table 1 coding), see :func:`fits._rsm_terms.natural_expansion`.
+    Table 1 coding), see :func:`fits.rsm._terms.natural_expansion`.
     """
     if not isinstance(alpha, (int, float)) or not 0.0 < alpha < 1.0:
         raise InputError(f"alpha must be between 0 and 1, got {alpha!r}")

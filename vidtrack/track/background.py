@@ -18,8 +18,8 @@ The segmentation threshold of a pixel is ``max(k * noise_sigma, k * noise_map)``
 
 Example
 -------
->>> from vidtrack.frames import open_source                    # doctest: +SKIP
->>> from vidtrack.background import sample_background          # doctest: +SKIP
+>>> from vidtrack.footage.frames import open_source                    # doctest: +SKIP
+>>> from vidtrack.track.background import sample_background          # doctest: +SKIP
 >>> with open_source("run42/front.avi", fps=1200) as src:      # doctest: +SKIP
 ...     bg = sample_background(src, samples=25)
 ...     print(bg.noise_sigma, bg.threshold(k=5.0).mean())
@@ -284,7 +284,7 @@ def sample_background(source, *, samples=25):
 
     Parameters
     ----------
-    source : vidtrack.frames.FrameSource
+    source : vidtrack.footage.frames.FrameSource
         An open frame source (random access ``source[i]``).
     samples : int, optional
         Frames in the median (default 25).
@@ -301,7 +301,7 @@ def sample_background(source, *, samples=25):
     Notes
     -----
     Random access into a compressed video decodes from the preceding key frame, so on
-    such footage this costs more than the frames it keeps; :func:`vidtrack.tracker.track`
+    such footage this costs more than the frames it keeps; :func:`vidtrack.track.tracker.track`
     instead takes its background from frames it decodes anyway (the first part of the
     footage) unless given one.
     """

@@ -7,7 +7,7 @@ and 95 % intervals (or why not determined), the initial state, residuals and tim
 
 import numpy as np
 
-from vidtrack import _html
+from vidtrack.report import _html
 from vidtrack._atomic import write_text
 
 K_NAMES = ("k1", "k2", "k3", "k4")

@@ -15,7 +15,7 @@ embedded as base64 PNG; the file is written atomically.
 
 import numpy as np
 
-from vidtrack import _html
+from vidtrack.report import _html
 from vidtrack._atomic import write_text
 
 __all__ = ["render_anova_report", "write_anova_report"]

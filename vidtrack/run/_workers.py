@@ -1,6 +1,6 @@
 """Tracking one of a scene's two views beside the other: in a process or in a thread.
 
-Internal to :mod:`vidtrack.pipeline`. The command line tracks the view with the larger
+Internal to :mod:`vidtrack.run.pipeline`. The command line tracks the view with the larger
 footage in a spawned process (:class:`ViewProcess`): the two views then run truly at
 once on two cores, while the calling process also loads what the later stages need
 (:func:`preload_later_stages`). That process stays on as the report's renderer: while
@@ -30,11 +30,11 @@ def source_of(view, scene, folder):
 def track_view(scene, folder, name, settings, *, quiet=True, cancel=None, parts=False):
     """Track view ``name`` of ``scene`` in ``folder`` with the tracker ``settings``.
 
-    Returns the Track, or with ``parts`` its fields (:func:`vidtrack.tracker.track_parts`:
+    Returns the Track, or with ``parts`` its fields (:func:`vidtrack.track.tracker.track_parts`:
     no pandas needed).
     """
-    from vidtrack.frames import open_source
-    from vidtrack.tracker import track, track_parts
+    from vidtrack.footage.frames import open_source
+    from vidtrack.track.tracker import track, track_parts
 
     view = scene.views[name]
     with open_source(source_of(view, scene, folder), fps=view.fps, frames=view.frames) as src:
@@ -43,8 +43,8 @@ def track_view(scene, folder, name, settings, *, quiet=True, cancel=None, parts=
 
 
 #: What the stages after tracking import (about 0.8 s of CPU).
-LATER_STAGES = ("scipy.optimize", "h5py", "vidtrack.stereo", "vidtrack.tracks_io", "fits.lsq",
-                "vidtrack.fit_record")
+LATER_STAGES = ("scipy.optimize", "h5py", "vidtrack.world.orthogonal", "vidtrack.run.tracks_file", "fits.lsq",
+                "vidtrack.run.fit_record")
 
 
 def _import_all(names):
@@ -85,7 +85,7 @@ def _send(conn, status, value, what):
 
 def _warm_up_plots():
     """Load what drawing the report takes (while the caller merges and fits)."""
-    from vidtrack import _html
+    from vidtrack.report import _html
 
     _html.png_bytes(_html.figure(1, 1))   # fonts and the Agg canvas, once
 
@@ -110,7 +110,7 @@ def _serve(conn):
     ``("page", record, curves, world)`` -> report.html's text. A job's error goes back
     in its place. After a track job with ``report`` matplotlib is loaded at once, while
     the caller merges and fits (once per process: a run's throws share it)."""
-    from vidtrack.run_report import render_html, tracks_image
+    from vidtrack.report.run_page import render_html, tracks_image
 
     warm, tracks_img = False, None
     while True:
@@ -192,7 +192,7 @@ class ViewProcess:
 
     def track(self):
         """The view's Track (its error raised here)."""
-        from vidtrack.tracker import Track
+        from vidtrack.track.tracker import Track
 
         return Track.from_parts(self._result(f"tracking view {self.name}"))
 
@@ -205,7 +205,7 @@ class ViewProcess:
 
     def render(self, record, *, fit, world):
         """report.html's text drawn in the process; None if the process is gone."""
-        from vidtrack.run_report import fit_curves
+        from vidtrack.report.run_page import fit_curves
 
         try:
             # the curves, not the fit, and columns, not frames: the process loads neither
@@ -237,7 +237,7 @@ class ViewThread:
         self.thread.start()
 
     def _run(self, scene, folder, name, settings, quiet):
-        from vidtrack.tracker import Cancelled
+        from vidtrack.track.tracker import Cancelled
 
         try:
             self.out["ok"] = track_view(scene, folder, name, settings, quiet=quiet,

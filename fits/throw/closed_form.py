@@ -29,14 +29,14 @@ The printed solutions overflow, cancel or divide by zero outside the paper's own
 (MODEL.md section 1). The forms here are rewritten with exact identities so that every
 cp >= 0 (cp = 0 included), every k > 0, long times, both signs of vx0 and vy0 and
 downward speeds beyond the terminal speed are evaluated to a few ulp of the terms
-involved; ``tests/test_throw.py`` checks them against ``fits.throw_ode``.
+involved; ``tests/test_throw.py`` checks them against ``fits.throw.ode``.
 """
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from fits import _stable as st
+from fits.throw import _stable as st
 from fits.errors import InputError
 
 G_STANDARD = 9.80665

@@ -6,7 +6,7 @@ X, which is how they are put on one clock and checked against each other:
 1. **Time zero.** A view's ``sync`` is a frame index (the frame at which t = 0, from
    ``scene.toml``'s ``sync_frame``) or ``"auto"``. With ``"auto"`` the reference view
    (``front`` when it has a detected release, else a view that has one) takes t = 0 at
-   its release instant (:attr:`vidtrack.tracker.Track.release_t_s`, between frames);
+   its release instant (:attr:`vidtrack.track.tracker.Track.release_t_s`, between frames);
    without any release the first usable frame of the reference view is t = 0 (noted).
 2. **The other view's offset.** A view with ``"auto"`` that is not the reference is
    shifted onto the reference's clock by the offset that minimises the mean squared
@@ -38,7 +38,7 @@ import numpy as np
 import pandas as pd
 
 from vidtrack.errors import TrackError
-from vidtrack.tracker import PRE_RELEASE
+from vidtrack.track.tracker import PRE_RELEASE
 
 __all__ = ["WorldTrack", "merge_tracks", "view_world", "WORLD_COLUMNS"]
 
@@ -70,7 +70,7 @@ class WorldTrack:
         Points in that comparison.
     warnings : tuple of str
         Disagreement beyond the pixel scale, missing releases, and the like.
-    tracks : dict of str to vidtrack.tracker.Track or None
+    tracks : dict of str to vidtrack.track.tracker.Track or None
         The views' tracks as merged: frames before each view's t = 0 flagged
         PRE_RELEASE (and only those), the release carried over to a view that had none
         of its own (``release_t_s`` is then the view's t = 0). None when read back
@@ -102,7 +102,7 @@ def view_world(track, mapping):
 
     Parameters
     ----------
-    track : vidtrack.tracker.Track
+    track : vidtrack.track.tracker.Track
     mapping : calibration.ViewMapping
         The view's pixel -> world mapping.
 
@@ -207,7 +207,7 @@ def merge_tracks(tracks, mappings, *, sync=None, min_overlap=10):
 
     Parameters
     ----------
-    tracks : dict of str to vidtrack.tracker.Track
+    tracks : dict of str to vidtrack.track.tracker.Track
         ``{"front": ..., "top": ...}`` (one or both).
     mappings : dict of str to calibration.ViewMapping
         Each view's pixel -> world mapping (``ViewSpec.mapping()``).

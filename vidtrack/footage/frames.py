@@ -2,7 +2,7 @@
 
 Every source is a lazy sequence of grey 2-D numpy frames with a time base:
 
->>> from vidtrack.frames import open_source                      # doctest: +SKIP
+>>> from vidtrack.footage.frames import open_source                      # doctest: +SKIP
 >>> with open_source("run42/front.avi", fps=1200) as src:        # doctest: +SKIP
 ...     print(len(src), src.shape, src.dtype, src.bit_depth, src.fps)
 ...     for i, frame in enumerate(src):                           # streams, one frame at a time
@@ -778,7 +778,7 @@ def open_source(path, *, fps=None, frames=None, use_time_stamps=True):
         The CAPTURE rate in frames/s (``scene.toml`` ``views.<view>.fps``). It wins over
         a container's rate (exported high-speed videos say 30 fps). For a .cine with
         per-image time stamps the stamps give the times; ``fps`` is then the nominal
-        rate they are checked against (see :mod:`vidtrack.timebase`).
+        rate they are checked against (see :mod:`vidtrack.footage.timebase`).
     frames : (int, int), optional
         Half-open range ``[a, b)`` of 0-based file frame indices; ``b`` None means to the
         end, ``b`` past the end is clipped (noted in ``source.notes``).
@@ -790,7 +790,7 @@ def open_source(path, *, fps=None, frames=None, use_time_stamps=True):
     -------
     FrameSource
         A :class:`VideoSource`, :class:`ImageFolderSource` or
-        :class:`vidtrack.cine.CineSource`; use it as a context manager.
+        :class:`vidtrack.footage.cine.CineSource`; use it as a context manager.
 
     Raises
     ------
@@ -806,7 +806,7 @@ def open_source(path, *, fps=None, frames=None, use_time_stamps=True):
     if path.is_dir():
         return ImageFolderSource(path, fps=fps, frames=frames)
     if path.suffix.lower() == ".cine":
-        from vidtrack.cine import CineSource
+        from vidtrack.footage.cine import CineSource
 
         return CineSource(path, fps=fps, frames=frames, use_time_stamps=use_time_stamps)
     return VideoSource(path, fps=fps, frames=frames)

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from vidtrack import __version__
 from vidtrack._atomic import write_text
-from vidtrack._view_workers import (ViewProcess, ViewThread, preload_later_stages, source_of,
+from vidtrack.run._workers import (ViewProcess, ViewThread, preload_later_stages, source_of,
                                     track_view)
 from vidtrack.errors import FitError, SceneError
 
@@ -97,7 +97,7 @@ def _track_views(scene, folder, options, timings, workers):
     """Track every view of the scene in ``folder``.
 
     With two views and ``options.threads`` above 1 the view with the larger footage is
-    tracked beside the other (:mod:`vidtrack._view_workers`): in a process of its own
+    tracked beside the other (:mod:`vidtrack.run._workers`): in a process of its own
     when ``options.view_process`` (the command line), else in a thread. If the view
     tracked here fails (or Ctrl-C), the other is stopped before the error goes on; if
     the other fails, its error is raised here.
@@ -157,7 +157,7 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers):
                                for n, v in scene.views.items()}})
     h5 = out_dir / "tracks.h5"
     if not options.force and stages.get("tracks") == key and h5.is_file():
-        from vidtrack.tracks_io import read_tracks
+        from vidtrack.run.tracks_file import read_tracks
 
         t0 = time.perf_counter()
         tf = read_tracks(h5)
@@ -165,8 +165,8 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers):
             timings["tracks_reused"] = time.perf_counter() - t0
             return key, tf.tracks, tf.world, True, None
     tracks, helper = _track_views(scene, folder, options, timings, workers)
-    from vidtrack.stereo import merge_tracks
-    from vidtrack.tracks_io import write_tracks
+    from vidtrack.world.orthogonal import merge_tracks
+    from vidtrack.run.tracks_file import write_tracks
 
     t0 = time.perf_counter()
     mappings = {n: v.mapping() for n, v in scene.views.items()}
@@ -217,8 +217,8 @@ def fit_throw_folder(scene, folder, out_dir, options, workers=None):
 
     from fits.errors import ConvergenceError
     from fits.lsq import fit_throw
-    from vidtrack.fit_record import dumps, throw_record
-    from vidtrack.run_report import write_run_report
+    from vidtrack.run.fit_record import dumps, throw_record
+    from vidtrack.report.run_page import write_run_report
 
     cp = _check_cp(scene, options)
     # tracks.h5 itself too: a track edited by hand (flags set, points removed) is refitted
@@ -279,8 +279,8 @@ def fit_run(run_dir, options=FitOptions()):
     throws = scene.throw_dirs()
     if not throws:
         return fit_throw_folder(scene, scene.folder, out, options)
-    from vidtrack.fit_record import dumps, mean_record
-    from vidtrack.run_report import write_run_report
+    from vidtrack.run.fit_record import dumps, mean_record
+    from vidtrack.report.run_page import write_run_report
 
     t0 = time.perf_counter()
     workers = {}                     # one worker process serves all the throws

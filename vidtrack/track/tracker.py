@@ -1,7 +1,7 @@
 """The straw tracker: one view's footage to a per-frame track in pixels.
 
->>> from vidtrack.frames import open_source                     # doctest: +SKIP
->>> from vidtrack.tracker import track                          # doctest: +SKIP
+>>> from vidtrack.footage.frames import open_source                     # doctest: +SKIP
+>>> from vidtrack.track.tracker import track                          # doctest: +SKIP
 >>> with open_source("run42/front.avi", fps=1200) as src:       # doctest: +SKIP
 ...     tr = track(src, view="front")
 >>> tr.data.head()                                              # doctest: +SKIP
@@ -9,7 +9,7 @@
 
 How it works (details in ``docs/tracker.md``):
 
-1. **Background and noise** (:mod:`vidtrack.background`): the per-pixel median of frames
+1. **Background and noise** (:mod:`vidtrack.track.background`): the per-pixel median of frames
    spread over the first part of the footage (frames the pass decodes anyway: no
    second decoding), the noise from the MAD of frame differences and a per-pixel noise
    map; the threshold is ``k_sigma`` times the noise.
@@ -22,11 +22,11 @@ How it works (details in ``docs/tracker.md``):
    level (a shadow is not the straw), and another blob is never the straw.
 4. **Measuring it**: the coverage-weighted centroid (unbiased over a textured
    background), area, orientation and length from second moments
-   (:mod:`vidtrack._segment`).
-5. **Afterwards** (:mod:`vidtrack._refine`): points off the smooth path are flagged,
+   (:mod:`vidtrack.track._segment`).
+5. **Afterwards** (:mod:`vidtrack.track._refine`): points off the smooth path are flagged,
    the release (first frame of free flight) is found where the path's strong
    acceleration on the rotor ends (not in the ``top`` view, which sees the rotor's plane
-   edge-on: there :func:`vidtrack.stereo.merge_tracks` carries the release over from the
+   edge-on: there :func:`vidtrack.world.orthogonal.merge_tracks` carries the release over from the
    ``front`` view), short gaps are bridged.
 
 Flags (bit field, column ``flags``; a frame is usable for fitting only when it is 0):
@@ -52,11 +52,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from vidtrack import _refine
+from vidtrack.track import _refine
 from vidtrack._progress import progress
-from vidtrack._segment import Segmenter, measure, other_behind, read_level, work_margin
-from vidtrack._select import Acquirer, Intruders, Predictor
-from vidtrack.background import Background, estimate_background, sample_indices
+from vidtrack.track._segment import Segmenter, measure, other_behind, read_level, work_margin
+from vidtrack.track._select import Acquirer, Intruders, Predictor
+from vidtrack.track.background import Background, estimate_background, sample_indices
 from vidtrack.errors import TrackError
 
 if TYPE_CHECKING:
@@ -111,7 +111,7 @@ class Track:
     release_frame : int or None
         File frame index of the first frame of free flight; None when the release is
         not identifiable in this view (always so in the ``top`` view as tracked; the
-        merged track of :attr:`vidtrack.stereo.WorldTrack.tracks` has it).
+        merged track of :attr:`vidtrack.world.orthogonal.WorldTrack.tracks` has it).
     release_note : str
         How the release was decided.
     release_t_s : float or None
@@ -298,17 +298,17 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
 
     Parameters
     ----------
-    source : vidtrack.frames.FrameSource
+    source : vidtrack.footage.frames.FrameSource
         An open frame source with a time base (``fps`` known). Read once, in order.
-    background : vidtrack.background.Background, optional
-        A precomputed background (e.g. :func:`vidtrack.background.sample_background`
+    background : vidtrack.track.background.Background, optional
+        A precomputed background (e.g. :func:`vidtrack.track.background.sample_background`
         over the whole footage). Default: the median of up to 25 frames spread over the
         first ``warmup_frames`` frames, which the pass holds and then tracks.
     view : str, optional
         The view's name, used in messages and the result. In the ``"top"`` view the
         release is not looked for (``release_frame`` None, the note says why): it sees
         the rotor's plane edge-on, where the ride on the blade barely differs from free
-        flight; :func:`vidtrack.stereo.merge_tracks` carries the release over from the
+        flight; :func:`vidtrack.world.orthogonal.merge_tracks` carries the release over from the
         ``front`` view through the shared X.
     k_sigma : float, optional
         Segmentation threshold in multiples of the measured noise (default 5).
@@ -396,7 +396,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         notes.append(f"background: median of {len(sidx)} frames spread over frames "
                      f"0..{warm - 1}")
     elif not isinstance(background, Background):
-        raise TrackError(f"background must be a vidtrack.background.Background, got "
+        raise TrackError(f"background must be a vidtrack.track.background.Background, got "
                          f"{type(background).__name__}")
     if tuple(background.shape) != shape:
         raise TrackError(f"{name}: the background is {background.shape}, the frames are {shape}")

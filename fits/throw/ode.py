@@ -10,7 +10,7 @@ times them against.
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from fits.throw import G_STANDARD, _check_params, _check_times
+from fits.throw.closed_form import G_STANDARD, _check_params, _check_times
 
 __all__ = ["solve_throw"]
 

@@ -9,10 +9,10 @@ from synth_runs import synth_run, truth, view_truth
 
 from calibration.views import ViewMapping
 from vidtrack.errors import TrackError
-from vidtrack.frames import open_source
+from vidtrack.footage.frames import open_source
 from vidtrack.scene import load_scene
-from vidtrack.stereo import WORLD_COLUMNS, merge_tracks, view_world
-from vidtrack.tracker import PRE_RELEASE, Track, track
+from vidtrack.world.orthogonal import WORLD_COLUMNS, merge_tracks, view_world
+from vidtrack.track.tracker import PRE_RELEASE, Track, track
 
 RUN42 = Path(__file__).resolve().parents[1] / "datasets" / "run42"
 #: A run of the ``vidtrack report`` end-to-end test (tests/test_cli_report.py): the

@@ -21,7 +21,7 @@ are never used to judge others.
 
 import numpy as np
 
-from vidtrack.background import MAD_TO_SIGMA
+from vidtrack.track.background import MAD_TO_SIGMA
 
 
 def _quad_fit(t, p, t_eval):

@@ -21,7 +21,7 @@ What is rendered, per view (orthographic cameras, SPEC "Views"):
 - optionally a second straw, drawn behind the first, crossing it at a given time;
 - motion blur: each frame is the mean of ``exposure_samples`` renders spread evenly
   over the exposure (``exposure_fraction / fps`` seconds centred on the frame's time);
-- exact anti-aliasing: pixel coverage from :mod:`vidtrack._render` (1/256 resolution
+- exact anti-aliasing: pixel coverage from :mod:`vidtrack.synth._raster` (1/256 resolution
   on edges, exact elsewhere);
 - sensor noise (Gaussian read noise, optional Poisson shot noise), quantisation to
   the output bit depth, and compression (MJPG AVI at a quality, or lossless FFV1 /
@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vidtrack import _render
+from vidtrack.synth import _raster
 from vidtrack.errors import VidtrackError
 
 __all__ = ["SynthSpec", "SynthRun", "render_run", "VIEW_NAMES", "FORMATS", "CODECS",
@@ -561,7 +561,7 @@ class _View:
     def world_box(self, lo, hi):
         """The pixel Box of the world rectangle lo..hi (2 coords each, view's axes)."""
         corners = self.mapping.world_to_pixel(np.array([lo, hi], dtype=np.float64))
-        return _render.Box(corners[0, 0], corners[1, 0], corners[0, 1], corners[1, 1])
+        return _raster.Box(corners[0, 0], corners[1, 0], corners[0, 1], corners[1, 1])
 
 
 def _frame_times(spec, delay_s):
@@ -663,8 +663,8 @@ def _ruler_boxes(view):
     half = 5.0
 
     def box(al0, al1, pe0, pe1):
-        return (_render.Box(al0, al1, pe0, pe1) if along_cols
-                else _render.Box(pe0, pe1, al0, al1))
+        return (_raster.Box(al0, al1, pe0, pe1) if along_cols
+                else _raster.Box(pe0, pe1, al0, al1))
 
     out = [(box(lo - 6.0, hi + 6.0, perp - half, perp + half), _GREY["ruler"])]
     span_px = hi - lo
@@ -689,11 +689,11 @@ def _static_image(spec, view):
     """Background texture, housing, hood and ruler (float image in [0, 1])."""
     rng = np.random.default_rng([spec.seed, VIEW_NAMES.index(view.name), 1])
     h, w = view.height, view.width
-    img = spec.background_grey + spec.texture_amplitude * _render.smooth_texture((h, w), rng)
+    img = spec.background_grey + spec.texture_amplitude * _raster.smooth_texture((h, w), rng)
     rows = (np.arange(h) - 0.5 * (h - 1)) / (0.5 * h)
     cols = (np.arange(w) - 0.5 * (w - 1)) / (0.5 * w)
     img *= 1.0 - 0.5 * spec.vignetting * (rows[:, None] ** 2 + cols[None, :] ** 2)
-    whole = _render.Roi(0, h, 0, w)
+    whole = _raster.Roi(0, h, 0, w)
     paint = []
     if spec.draw_machine:
         r = _machine_radius(spec)
@@ -705,7 +705,7 @@ def _static_image(spec, view):
     if spec.draw_ruler:
         paint.extend(_ruler_boxes(view))
     for shape, grey in paint:
-        cov = _render.box_coverage(shape, whole)
+        cov = _raster.box_coverage(shape, whole)
         img += (grey - img) * cov
     return img
 
@@ -770,23 +770,23 @@ class _ViewTrack:
                 tip = np.array([[radius * math.cos(ang), radius * math.sin(ang), 0.0]])
                 if view.name == "front":
                     a, b = view.to_px(np.zeros((1, 3)))[0], view.to_px(tip)[0]
-                    shape = _render.Capsule(tuple(a), tuple(b), _TOOTH_HALF_WIDTH_M / m)
+                    shape = _raster.Capsule(tuple(a), tuple(b), _TOOTH_HALF_WIDTH_M / m)
                 else:
                     shape = view.world_box((min(0.0, tip[0, 0]), -_TOOTH_HALF_BREADTH_M),
                                            (max(0.0, tip[0, 0]), _TOOTH_HALF_BREADTH_M))
                 out.append((tooth, shape, _GREY["tooth"]))
             if view.name == "front":
                 o = view.to_px(np.zeros((1, 3)))[0]
-                hub = _render.Capsule(tuple(o), tuple(o), _HUB_RADIUS_M / m)
+                hub = _raster.Capsule(tuple(o), tuple(o), _HUB_RADIUS_M / m)
             else:
                 hub = view.world_box((-_SHAFT_HALF_WIDTH_M, -_SHAFT_HALF_LENGTH_M),
                                      (_SHAFT_HALF_WIDTH_M, _SHAFT_HALF_LENGTH_M))
             out.append(("hub", hub, _GREY["hub"]))
         if self.second and np.all(np.isfinite(self.sub2_a[i, j])):
-            out.append(("straw2", _render.Capsule(tuple(self.sub2_a[i, j]),
+            out.append(("straw2", _raster.Capsule(tuple(self.sub2_a[i, j]),
                                                   tuple(self.sub2_b[i, j]), self.radius_px),
                         spec.straw_grey))
-        out.append(("straw", _render.Capsule(tuple(self.sub_a[i, j]), tuple(self.sub_b[i, j]),
+        out.append(("straw", _raster.Capsule(tuple(self.sub_a[i, j]), tuple(self.sub_b[i, j]),
                                              self.radius_px), spec.straw_grey))
         return out
 
@@ -841,7 +841,7 @@ class _ViewRenderer:
         rois = {}
         for layers in per_sample:
             for key, s, _ in layers:
-                roi = _render.shape_roi(s.extent_px()).clip(shape)
+                roi = _raster.shape_roi(s.extent_px()).clip(shape)
                 if not roi.empty:
                     rois[key] = rois[key].union(roi) if key in rois else roi
         groups = _merge_rois(rois)
@@ -854,7 +854,7 @@ class _ViewRenderer:
             cov = {}
             for layers in per_sample:
                 sel = [ly for ly in layers if ly[0] in keys]
-                painted, covers = _render.composite_box(base, sel, roi,
+                painted, covers = _raster.composite_box(base, sel, roi,
                                                         supersample=spec.supersample,
                                                         cache=self._cache)
                 acc += painted
@@ -881,9 +881,9 @@ class _ViewRenderer:
         self.info[i] = facts
         rng = np.random.default_rng([self.spec.seed, VIEW_NAMES.index(self.view.name),
                                      self.throw_index, i, 2])
-        noisy = _render.add_sensor_noise(image, rng, read_noise=self.read_noise,
+        noisy = _raster.add_sensor_noise(image, rng, read_noise=self.read_noise,
                                          full_well_e=self.spec.full_well_e)
-        return _render.quantize(noisy, self.spec.bit_depth)
+        return _raster.quantize(noisy, self.spec.bit_depth)
 
 
 # ---------------------------------------------------------------------------------------
@@ -966,7 +966,7 @@ class _LazyFrames:
 
 
 def _write_cine(path, renderer, n, spec, release_frame, tick):
-    from vidtrack.cine import write_cine
+    from vidtrack.footage.cine import write_cine
 
     write_cine(path, _LazyFrames(renderer, n, tick), fps=spec.fps, bit_depth=spec.bit_depth,
                packed=spec.cine_packed, first_image_no=-int(release_frame),

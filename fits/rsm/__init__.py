@@ -1,0 +1,15 @@
+"""Response-surface analysis of a designed experiment (Chen 2018 Table 3, eqs. 20-23).
+
+``fit_rsm(table, response, factors)`` -> ``RsmFit``: the second-order model in coded
+variables, its ANOVA (model, terms, lack of fit, pure error), backward elimination and the
+canonical analysis, defined in ``fits.rsm.fit``. The private modules hold the model terms
+(``_terms``), the statistics (``_stats``), reading and checking the table (``_table``) and
+the text formatting shared with ``fits.orthogonal`` (``_text``).
+"""
+
+from fits.rsm.fit import (AliasedTermWarning, AnovaRow, CanonicalAnalysis, EliminationStep,
+                          Factor, RsmFit, TermTest, code_factors, default_factors, fit_rsm,
+                          read_table)
+
+__all__ = ["AliasedTermWarning", "AnovaRow", "CanonicalAnalysis", "EliminationStep", "Factor",
+           "RsmFit", "TermTest", "code_factors", "default_factors", "fit_rsm", "read_table"]

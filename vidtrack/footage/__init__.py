@@ -1,0 +1,1 @@
+"""Footage: frame sources (videos, image folders, Phantom .cine), the time base, frame export."""

@@ -1,0 +1,1 @@
+"""A run: the stages from footage to fit.json, their cache, the worker process, the output files."""

@@ -1,0 +1,1 @@
+"""Tracking one view: background, segmentation, selection, refinement -> a per-frame ``Track``."""
