@@ -15,9 +15,10 @@ from scipy.integrate import solve_ivp
 from fits.blade import BladeSetting, release
 from fits.errors import InputError
 from vidtrack.errors import VidtrackError
-from vidtrack.predict import (ExtrapolationWarning, InletGeometry, _regression_from,
-                              build_published_regression, evaluate_term, load_regression,
-                              place_device, predict, predict_coefficients, throw_trajectory)
+from vidtrack.predict import (ExtrapolationWarning, InletGeometry, build_published_regression,
+                              evaluate_term, load_regression, place_device, predict,
+                              predict_coefficients, throw_trajectory)
+from vidtrack.predict.regression import _regression_from
 
 G = 9.80665
 
