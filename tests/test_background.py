@@ -11,7 +11,7 @@ from rod_render import compose, rod_coverage, texture
 from vidtrack.track.background import (estimate_background, measure_noise, median_images,
                                  sample_background, sample_indices)
 from vidtrack.errors import TrackError
-from vidtrack.footage.frames import open_source
+from vidtrack.footage import open_source
 
 
 @settings(max_examples=40, deadline=None)

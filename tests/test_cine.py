@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from vidtrack.footage.cine import (CineSource, pack_10bit, pack_12bit, unpack_10bit, unpack_12bit,
                            write_cine)
 from vidtrack.errors import SourceError
-from vidtrack.footage.frames import open_source
+from vidtrack.footage import open_source
 from vidtrack.footage.timebase import check_time_base, check_time_stamps
 
 REAL = "data/cine/cine_legacy.cine"

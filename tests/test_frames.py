@@ -13,8 +13,8 @@ import pytest
 
 from vidtrack.footage.cine import write_cine
 from vidtrack.errors import SourceError
-from vidtrack.footage.frames import (ImageFolderSource, VideoSource, natural_key, open_source,
-                             to_grey)
+from vidtrack.footage import (ImageFolderSource, VideoSource, natural_key, open_source,
+                              to_grey)
 
 ROWS, COLS, N = 48, 64, 20
 FPS = 1200.0          # the capture rate given by the user

@@ -5,7 +5,7 @@
 - the rasteriser's coverage against brute-force dense point sampling;
 - a rendered frame's coverage-weighted centroid (straw alone: flat background, no
   noise, 16-bit png) against the truth centroid;
-- every output format read back through vidtrack.footage.frames with the right length, shape
+- every output format read back through vidtrack.footage with the right length, shape
   and time base; lossless formats agree pixel for pixel;
 - scene.toml loads and describes the mapping the footage was rendered with;
 - options: one view, second straw, leaving the frame, replicate throws, top delay;
@@ -21,7 +21,7 @@ import pytest
 from fits.throw import position
 from vidtrack.synth._raster import Box, Capsule, Roi, box_coverage, capsule_coverage
 from vidtrack.errors import VidtrackError
-from vidtrack.footage.frames import open_source
+from vidtrack.footage import open_source
 from vidtrack.scene import find_throw_dirs, load_scene
 from vidtrack.synth import SynthSpec, render_run
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vidtrack.footage.cine import write_cine
-from vidtrack.footage.frames import open_source
+from vidtrack.footage import open_source
 from vidtrack.footage.timebase import (check_time_base, check_time_stamps, compare_rates,
                                estimate_noise_sigma, find_duplicates, frame_differences)
 

@@ -12,7 +12,7 @@ from fits.throw import position
 from vidtrack.track import _refine
 from vidtrack.track.background import Background
 from vidtrack.errors import TrackError
-from vidtrack.footage.frames import open_source
+from vidtrack.footage import open_source
 from vidtrack.synth import SynthSpec, straw_pose
 from vidtrack.track.tracker import (BLADE, BORDER, FLAGS, LOST, MERGED, PRE_RELEASE, PREDICTED,
                               TRACK_COLUMNS, _release_evidence, describe_flags, track)

@@ -9,7 +9,7 @@ from synth_runs import synth_run, truth, view_truth
 
 from calibration.views import ViewMapping
 from vidtrack.errors import TrackError
-from vidtrack.footage.frames import open_source
+from vidtrack.footage import open_source
 from vidtrack.scene import load_scene
 from vidtrack.world.orthogonal import WORLD_COLUMNS, merge_tracks, view_world
 from vidtrack.track.tracker import PRE_RELEASE, Track, track

@@ -12,7 +12,7 @@ import warnings
 
 #: old dotted path -> new dotted path (modules moved in 0.2; the aliases go in 0.3)
 MOVED = {
-    "vidtrack.frames": "vidtrack.footage.frames",
+    "vidtrack.frames": "vidtrack.footage",
     "vidtrack.cine": "vidtrack.footage.cine",
     "vidtrack.timebase": "vidtrack.footage.timebase",
     "vidtrack.background": "vidtrack.track.background",

@@ -87,7 +87,7 @@ def _score(pos, per_frame, clean, ran):
 
 
 def _decode(path, fps):
-    from vidtrack.footage.frames import open_source
+    from vidtrack.footage import open_source
 
     t0 = time.perf_counter()
     with open_source(path, fps=fps) as src:
@@ -98,7 +98,7 @@ def _decode(path, fps):
 
 
 def _ours(path, fps):
-    from vidtrack.footage.frames import open_source
+    from vidtrack.footage import open_source
     from vidtrack.track.tracker import track
 
     t0 = time.perf_counter()
@@ -120,7 +120,7 @@ def _trackpy(path, fps, per_frame, start, count, length_px):
 
     import trackpy
 
-    from vidtrack.footage.frames import open_source
+    from vidtrack.footage import open_source
 
     trackpy.quiet()
     diameter = 2 * int(math.ceil(0.5 * length_px)) + 3
@@ -151,7 +151,7 @@ def _trackpy(path, fps, per_frame, start, count, length_px):
 
 
 def _opencv(path, fps, per_frame, start, count, length_px):
-    from vidtrack.footage.frames import open_source
+    from vidtrack.footage import open_source
 
     name, factory = opencv_tracker()
     n = len(per_frame)

@@ -68,7 +68,7 @@ def run(args):
     import sys
 
     from vidtrack.errors import VidtrackError
-    from vidtrack.footage.frames import export_frames, open_source
+    from vidtrack.footage import export_frames, open_source
     from vidtrack.footage.timebase import check_time_base
 
     frames = _parse_range(args.range)

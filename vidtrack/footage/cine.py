@@ -41,7 +41,7 @@ import numpy as np
 
 from vidtrack._atomic import atomic_path
 from vidtrack.errors import SourceError
-from vidtrack.footage.frames import FrameSource, to_grey
+from vidtrack.footage.base import FrameSource, to_grey
 from vidtrack.footage.timebase import stamp_rate
 
 __all__ = ["CineSource", "write_cine", "pack_10bit", "unpack_10bit", "pack_12bit",

@@ -266,7 +266,7 @@ def frame_differences(frames):
     Parameters
     ----------
     frames : iterable of numpy.ndarray
-        2-D grey frames (a :class:`~vidtrack.footage.frames.FrameSource` streams them).
+        2-D grey frames (a :class:`~vidtrack.footage.base.FrameSource` streams them).
 
     Returns
     -------
@@ -389,7 +389,7 @@ def check_time_base(source, *, duplicates=True, ratio=0.1):
 
     Parameters
     ----------
-    source : vidtrack.footage.frames.FrameSource
+    source : vidtrack.footage.base.FrameSource
         An open source.
     duplicates : bool, optional
         Scan the frames for duplicates (one streaming pass over the footage).

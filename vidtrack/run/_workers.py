@@ -33,7 +33,7 @@ def track_view(scene, folder, name, settings, *, quiet=True, cancel=None, parts=
     Returns the Track, or with ``parts`` its fields (:func:`vidtrack.track.tracker.track_parts`:
     no pandas needed).
     """
-    from vidtrack.footage.frames import open_source
+    from vidtrack.footage import open_source
     from vidtrack.track.tracker import track, track_parts
 
     view = scene.views[name]

@@ -18,7 +18,7 @@ The segmentation threshold of a pixel is ``max(k * noise_sigma, k * noise_map)``
 
 Example
 -------
->>> from vidtrack.footage.frames import open_source                    # doctest: +SKIP
+>>> from vidtrack.footage import open_source                         # doctest: +SKIP
 >>> from vidtrack.track.background import sample_background          # doctest: +SKIP
 >>> with open_source("run42/front.avi", fps=1200) as src:      # doctest: +SKIP
 ...     bg = sample_background(src, samples=25)
@@ -284,7 +284,7 @@ def sample_background(source, *, samples=25):
 
     Parameters
     ----------
-    source : vidtrack.footage.frames.FrameSource
+    source : vidtrack.footage.base.FrameSource
         An open frame source (random access ``source[i]``).
     samples : int, optional
         Frames in the median (default 25).

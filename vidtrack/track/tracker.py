@@ -1,6 +1,6 @@
 """The straw tracker: one view's footage to a per-frame track in pixels.
 
->>> from vidtrack.footage.frames import open_source                     # doctest: +SKIP
+>>> from vidtrack.footage import open_source                          # doctest: +SKIP
 >>> from vidtrack.track.tracker import track                          # doctest: +SKIP
 >>> with open_source("run42/front.avi", fps=1200) as src:       # doctest: +SKIP
 ...     tr = track(src, view="front")
@@ -298,7 +298,7 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
 
     Parameters
     ----------
-    source : vidtrack.footage.frames.FrameSource
+    source : vidtrack.footage.base.FrameSource
         An open frame source with a time base (``fps`` known). Read once, in order.
     background : vidtrack.track.background.Background, optional
         A precomputed background (e.g. :func:`vidtrack.track.background.sample_background`

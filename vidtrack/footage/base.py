@@ -1,0 +1,344 @@
+"""Frame sources: the interface every reader implements, and the helpers they share.
+
+Every source is a lazy sequence of grey 2-D numpy frames with a time base:
+
+>>> from vidtrack.footage import open_source                     # doctest: +SKIP
+>>> with open_source("run42/front.avi", fps=1200) as src:        # doctest: +SKIP
+...     print(len(src), src.shape, src.dtype, src.bit_depth, src.fps)
+...     for i, frame in enumerate(src):                           # streams, one frame at a time
+...         t = src.time_s(i)
+
+The readers are :class:`~vidtrack.footage.video.VideoSource`,
+:class:`~vidtrack.footage.images.ImageFolderSource` and
+:class:`~vidtrack.footage.cine.CineSource`; :func:`~vidtrack.footage.sources.open_source`
+chooses one by what the path is.
+
+Indices and times
+-----------------
+``source[i]`` and ``source.time_s(i)`` use *source indices* ``0 .. len(source) - 1``.
+With ``frames=(a, b)`` the source covers the file's frames ``a .. b - 1``;
+``source.frame_numbers[i]`` is the 0-based index of source frame ``i`` in the file
+(``a + i``). Times are in seconds relative to the file's first frame (file frame 0),
+so a range does not shift the clock.
+
+The time base (which rate gives the times) is, in order of precedence:
+
+1. per-image time stamps of a .cine file (unless ``use_time_stamps=False``);
+2. ``fps``, the CAPTURE rate given by the user (``scene.toml`` ``views.<v>.fps``):
+   exported high-speed videos usually carry a playback rate (30 fps) in the container;
+3. the rate the container claims (video: its frame rate; .cine: the setup FrameRate).
+
+An image folder has no rate of its own: without ``fps`` its times are unknown and
+``time_s`` raises :class:`~vidtrack.errors.SourceError`.
+
+Colour
+------
+Colour frames are converted to grey with OpenCV's ``cvtColor`` (ITU-R BT.601 luma,
+``0.299 R + 0.587 G + 0.114 B``), keeping the dtype (8-bit stays 8-bit, 16-bit stays
+16-bit). Grey frames that a container stores as three equal channels come back
+unchanged. A video may instead be read as its decoder's luma plane (see
+:mod:`vidtrack.footage.video`).
+"""
+
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from vidtrack.errors import SourceError
+
+__all__ = ["FrameSource", "natural_key", "to_grey"]
+
+
+def _cv2():
+    """Import OpenCV with its own and FFmpeg's log chatter off (one-line errors)."""
+    os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
+    import cv2
+
+    # the variables act only on the first import (calibration may have imported cv2)
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+    return cv2
+
+
+def natural_key(name):
+    """Sort key that orders the digit runs of a name by value: ``img2`` before ``img10``.
+
+    Parameters
+    ----------
+    name : str or os.PathLike
+        A file name (only the final component is used for paths).
+
+    Returns
+    -------
+    tuple
+        Alternating lower-cased text and integer parts, comparable between names.
+    """
+    text = Path(name).name if isinstance(name, os.PathLike) else str(name)
+    parts = re.split(r"(\d+)", text)
+    return tuple(int(p) if k % 2 else p.lower() for k, p in enumerate(parts)) + (text,)
+
+
+def to_grey(image):
+    """Return ``image`` as a 2-D grey array of the same dtype (BT.601 luma for colour).
+
+    Parameters
+    ----------
+    image : numpy.ndarray
+        ``(rows, cols)``, ``(rows, cols, 1)``, BGR ``(rows, cols, 3)`` or BGRA
+        ``(rows, cols, 4)`` as OpenCV returns them.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(rows, cols)``.
+    """
+    if image.ndim == 2:
+        return image
+    if image.ndim == 3 and image.shape[2] == 1:
+        return image[:, :, 0]
+    cv2 = _cv2()
+    if image.ndim == 3 and image.shape[2] == 3:
+        return cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    if image.ndim == 3 and image.shape[2] == 4:
+        return cv2.cvtColor(image, cv2.COLOR_BGRA2GRAY)
+    raise SourceError(f"cannot convert an image of shape {image.shape} to grey")
+
+
+def _check_fps(fps, what="fps"):
+    if fps is None:
+        return None
+    try:
+        value = float(fps)
+    except (TypeError, ValueError):
+        raise SourceError(f"{what} must be a number of frames per second, got {fps!r}") from None
+    if not np.isfinite(value) or value <= 0:
+        raise SourceError(f"{what} must be a finite number > 0 (frames/s), got {fps!r}")
+    return value
+
+
+def _check_range(frames):
+    """``(a, b)`` as ints (``b`` None: to the end), or None; SourceError if malformed."""
+    if frames is None:
+        return None
+    try:
+        a, b = frames
+    except (TypeError, ValueError):
+        raise SourceError(f"frames must be a pair [a, b] (half-open, 0-based), got {frames!r}") \
+            from None
+    for v in (a, b):
+        if v is None and v is b:
+            continue
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+            raise SourceError(f"frames must be two integers [a, b], got {frames!r}")
+    if a < 0 or (b is not None and b <= a):
+        raise SourceError(f"frames must be [a, b] with 0 <= a < b, got [{a}, {b}]")
+    return int(a), (None if b is None else int(b))
+
+
+class FrameSource:
+    """A lazy sequence of grey frames with a time base (the interface of every source).
+
+    Subclasses read a file format; users get one from :func:`~vidtrack.footage.sources.open_source`.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The file or folder read.
+    shape : tuple of int
+        ``(rows, cols)`` of every frame.
+    dtype : numpy.dtype
+        ``uint8`` or ``uint16``.
+    bit_depth : int
+        Significant bits per pixel (8 for videos; 8 or 16 for image files; a .cine's
+        RealBPP, e.g. 10, 12 or 14 in 16-bit words).
+    fps : float or None
+        Capture rate in frames/s: the given ``fps``, else for a .cine with time stamps
+        the rate they show, else the container's. When a .cine's time stamps are used,
+        the times come from them, not from ``fps``.
+    fps_container : float or None
+        The rate the file claims (video container rate, .cine setup FrameRate); None
+        for image folders.
+    time_source : str
+        ``"time stamps"``, ``"fps"`` (given) or ``"container"``; ``"none"`` when no rate
+        is known.
+    notes : tuple of str
+        Things noticed while opening (e.g. unusable time stamps).
+
+    Notes
+    -----
+    ``source[i]`` returns a new array the caller may modify; iteration streams one
+    frame at a time, so memory does not grow with the length of the footage.
+    """
+
+    #: Short name of the format, used in messages and ``to_dict``.
+    kind = "frames"
+
+    def __init__(self, path, *, fps=None):
+        self.path = Path(path)
+        self._fps_given = _check_fps(fps)
+        self._closed = False
+        self._start = 0
+        self._stop = 0
+        self._times_cache = None
+        self.notes = ()
+
+    # -- hooks for subclasses -------------------------------------------------------
+    def _read_file_frame(self, k):  # pragma: no cover - abstract
+        raise TypeError(f"{type(self).__name__} does not read frames")
+
+    def _iter_file(self, start, stop):
+        for k in range(start, stop):
+            yield self._read_file_frame(k)
+
+    def _file_times_s(self, ks):
+        """Times (s, relative to file frame 0) of file frames ``ks``; None if unknown."""
+        fps = self.fps
+        if fps is None:
+            return None
+        return np.asarray(ks, dtype=np.float64) / fps
+
+    def _native_fps(self):
+        return self.fps_container
+
+    def _close(self):
+        pass
+
+    # -- set-up used by subclasses --------------------------------------------------
+    def _set_range(self, n_file, frames):
+        """Restrict the source to the half-open file range ``frames`` (slice semantics)."""
+        if n_file <= 0:
+            raise SourceError(f"{self.path}: no frames in this {self.kind}")
+        rng = _check_range(frames)
+        if rng is None:
+            self._start, self._stop = 0, n_file
+            return
+        a, b = rng
+        b = n_file if b is None else b
+        if a >= n_file:
+            raise SourceError(f"{self.path}: frames [{a}, {b}] selects nothing: the {self.kind} "
+                              f"has {n_file} frames (0..{n_file - 1})")
+        if b > n_file:
+            self.notes += (f"frames [{a}, {b}] runs past the last frame; using [{a}, {n_file}]",)
+        self._start, self._stop = a, min(b, n_file)
+
+    # -- the interface --------------------------------------------------------------
+    def __len__(self):
+        return self._stop - self._start
+
+    def len(self):
+        """Number of frames (same as ``len(source)``)."""
+        return len(self)
+
+    @property
+    def shape(self):
+        return self._shape
+
+    @property
+    def dtype(self):
+        return self._dtype
+
+    @property
+    def bit_depth(self):
+        return self._bit_depth
+
+    @property
+    def fps_given(self):
+        """The capture rate given when the source was opened (frames/s), or None."""
+        return self._fps_given
+
+    @property
+    def fps_container(self):
+        return getattr(self, "_fps_container", None)
+
+    @property
+    def fps(self):
+        if self._fps_given is not None:
+            return self._fps_given
+        return self._native_fps()
+
+    @property
+    def time_source(self):
+        if self._fps_given is not None:
+            return "fps"
+        return "container" if self._native_fps() is not None else "none"
+
+    @property
+    def frame_numbers(self):
+        """0-based file index of every source frame (``a .. b - 1`` for a range)."""
+        return np.arange(self._start, self._stop)
+
+    @property
+    def times_s(self):
+        """Time (s) of every source frame, relative to the file's first frame."""
+        if self._times_cache is None:
+            times = self._file_times_s(self.frame_numbers)
+            if times is None:
+                raise SourceError(
+                    f"{self.path}: no frame rate is known for this {self.kind}; give the capture "
+                    "rate (scene.toml views.<view>.fps, or --fps)")
+            times = np.asarray(times, dtype=np.float64)
+            times.flags.writeable = False
+            self._times_cache = times
+        return self._times_cache
+
+    def time_s(self, i):
+        """Time (s) of source frame ``i``, relative to the file's first frame."""
+        return float(self.times_s[self._index(i)])
+
+    def _index(self, i):
+        if isinstance(i, (bool, np.bool_)) or not isinstance(i, (int, np.integer)):
+            raise TypeError(f"frame index must be an integer, got {type(i).__name__}")
+        n = len(self)
+        j = int(i) + n if i < 0 else int(i)
+        if not 0 <= j < n:
+            raise IndexError(f"frame index {i} out of range for {n} frames")
+        return j
+
+    def _check_open(self):
+        if self._closed:
+            raise SourceError(f"{self.path}: the source is closed")
+
+    def __getitem__(self, i):
+        j = self._index(i)
+        self._check_open()
+        return self._read_file_frame(self._start + j)
+
+    def __iter__(self):
+        self._check_open()
+        yield from self._iter_file(self._start, self._stop)
+
+    def close(self):
+        """Release the file handles; further reads raise SourceError."""
+        if not self._closed:
+            self._closed = True
+            self._close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+    def to_dict(self):
+        """What the source is and its time base, as JSON-ready values."""
+        return {
+            "kind": self.kind,
+            "path": str(self.path),
+            "frames": len(self),
+            "range": [self._start, self._stop],
+            "shape": list(self.shape),
+            "dtype": str(self.dtype),
+            "bit_depth": self.bit_depth,
+            "fps": self.fps,
+            "fps_container": self.fps_container,
+            "time_source": self.time_source,
+            "notes": list(self.notes),
+        }
+
+    def __repr__(self):
+        return (f"<{type(self).__name__} {str(self.path)!r}: {len(self)} frames "
+                f"{self.shape[0]}x{self.shape[1]} {self.dtype} ({self.bit_depth} bit), "
+                f"fps={self.fps} ({self.time_source})>")
