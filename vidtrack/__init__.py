@@ -22,7 +22,7 @@ from vidtrack import _moved
 
 _moved.install()
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = ["VidtrackError", "__version__"]
 

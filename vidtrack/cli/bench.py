@@ -47,6 +47,11 @@ def run(args):
 
     if args.seeds is not None and (args.which != "fit" or args.seeds < 1):
         raise VidtrackError("--seeds goes with 'vidtrack bench fit' and must be >= 1")
+    import importlib.util
+
+    if args.which == "model" and importlib.util.find_spec("mpmath") is None:
+        raise VidtrackError("vidtrack bench model measures against 50-digit truth and needs "
+                            "mpmath: pip install 'vidtrack[bench]'")
     extra = {"seeds": args.seeds} if args.which == "fit" else {}
     text = RUNNERS[args.which](args.out, quick=args.quick, progress=progress, **extra)
     print(text)
