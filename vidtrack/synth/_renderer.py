@@ -1,0 +1,202 @@
+"""Rendering the frames of one view of one throw, over the view's static image.
+
+``_ViewTrack`` holds, in pixels, the poses of what moves at every frame and exposure
+sample:
+
+- the rotor: two knife teeth turning about the shaft (front: bars through the origin;
+  top: their projections, bars along X) and the hub (front) or shaft (top);
+- the straw: a rod of length L and diameter D with rounded ends (a capsule: its
+  silhouette in any orthographic view is again a capsule, centrally symmetric, so
+  the centroid of the silhouette is the projected rod centre), opaque, of grey
+  level ``straw_grey``;
+- optionally a second straw, drawn behind the first.
+
+``_ViewRenderer`` draws frame i:
+
+- motion blur: each frame is the mean of ``exposure_samples`` renders spread evenly
+  over the exposure (``exposure_fraction / fps`` seconds centred on the frame's time);
+- exact anti-aliasing: pixel coverage from :mod:`vidtrack.synth._raster` (1/256 resolution
+  on edges, exact elsewhere), only in the boxes the moving parts reach;
+- sensor noise (Gaussian read noise, optional Poisson shot noise) and quantisation to
+  the output bit depth.
+
+It also records, per frame, the straw's coverage and its overlaps with the blade and the
+second straw, for the truth file. Frames are rendered one at a time, deterministically,
+in any order.
+"""
+
+import math
+
+import numpy as np
+
+from vidtrack.synth import _raster
+from vidtrack.synth._views import (_GREY, _HUB_RADIUS_M, _SHAFT_HALF_LENGTH_M,
+                                   _SHAFT_HALF_WIDTH_M, _TOOTH_HALF_BREADTH_M,
+                                   _TOOTH_HALF_WIDTH_M, _frame_times)
+from vidtrack.synth.motion import _second_pose, straw_pose
+from vidtrack.synth.spec import VIEW_NAMES
+
+class _ViewTrack:
+    """Poses of the straw(s) and the rotor at every frame and exposure sample of a view."""
+
+    def __init__(self, spec, view, throw, second):
+        self.spec, self.view, self.throw = spec, view, throw
+        exposure = spec.exposure_fraction / spec.fps
+        n = spec.n_frames
+        kk = self.kk = spec.exposure_samples if exposure > 0 else 1
+        self.t = _frame_times(spec, view.delay_s)
+        offs = ((np.arange(kk) + 0.5) / kk - 0.5) * exposure
+        self.ts = self.t[:, None] + offs[None, :]                     # (n, K)
+        self.radius_px = 0.5 * spec.straw_diameter_m / view.mapping.m_per_px
+        half = 0.5 * spec.straw_length_m - 0.5 * spec.straw_diameter_m
+        c, d = straw_pose(self.t, throw.state, throw.k, spec=spec,
+                          blade_rad_s=throw.blade_rad_s, spin_rad_s=throw.spin_rad_s)
+        self.centre_m = c
+        self.centre_px = view.to_px(c)
+        self.end_a_px = view.to_px(c - half * d)
+        self.end_b_px = view.to_px(c + half * d)
+        cs, ds = straw_pose(self.ts.ravel(), throw.state, throw.k, spec=spec,
+                            blade_rad_s=throw.blade_rad_s, spin_rad_s=throw.spin_rad_s)
+        self.sub_a = view.to_px(cs - half * ds).reshape(n, kk, 2)
+        self.sub_b = view.to_px(cs + half * ds).reshape(n, kk, 2)
+        self.second = second is not None
+        if self.second:
+            state2, t2 = second
+            c2, d2 = _second_pose(self.t, spec, throw, state2, t2)
+            self.centre2_m = c2
+            self.centre2_px = view.to_px(c2)
+            self.end2_a_px = view.to_px(c2 - half * d2)
+            self.end2_b_px = view.to_px(c2 + half * d2)
+            cs2, ds2 = _second_pose(self.ts.ravel(), spec, throw, state2, t2)
+            self.sub2_a = view.to_px(cs2 - half * ds2).reshape(n, kk, 2)
+            self.sub2_b = view.to_px(cs2 + half * ds2).reshape(n, kk, 2)
+
+    def blade_angles(self, i):
+        return self.throw.release_angle_rad + self.throw.blade_rad_s * self.ts[i]
+
+    def layers(self, i, j):
+        """Opaque layers of exposure sample j of frame i, back to front."""
+        spec, view = self.spec, self.view
+        out = []
+        if spec.draw_machine:
+            phi = self.throw.release_angle_rad + self.throw.blade_rad_s * self.ts[i, j]
+            radius = self.throw.blade_radius_m
+            m = view.mapping.m_per_px
+            for tooth, ang in (("tooth0", phi), ("tooth1", phi + math.pi)):
+                tip = np.array([[radius * math.cos(ang), radius * math.sin(ang), 0.0]])
+                if view.name == "front":
+                    a, b = view.to_px(np.zeros((1, 3)))[0], view.to_px(tip)[0]
+                    shape = _raster.Capsule(tuple(a), tuple(b), _TOOTH_HALF_WIDTH_M / m)
+                else:
+                    shape = view.world_box((min(0.0, tip[0, 0]), -_TOOTH_HALF_BREADTH_M),
+                                           (max(0.0, tip[0, 0]), _TOOTH_HALF_BREADTH_M))
+                out.append((tooth, shape, _GREY["tooth"]))
+            if view.name == "front":
+                o = view.to_px(np.zeros((1, 3)))[0]
+                hub = _raster.Capsule(tuple(o), tuple(o), _HUB_RADIUS_M / m)
+            else:
+                hub = view.world_box((-_SHAFT_HALF_WIDTH_M, -_SHAFT_HALF_LENGTH_M),
+                                     (_SHAFT_HALF_WIDTH_M, _SHAFT_HALF_LENGTH_M))
+            out.append(("hub", hub, _GREY["hub"]))
+        if self.second and np.all(np.isfinite(self.sub2_a[i, j])):
+            out.append(("straw2", _raster.Capsule(tuple(self.sub2_a[i, j]),
+                                                  tuple(self.sub2_b[i, j]), self.radius_px),
+                        spec.straw_grey))
+        out.append(("straw", _raster.Capsule(tuple(self.sub_a[i, j]), tuple(self.sub_b[i, j]),
+                                             self.radius_px), spec.straw_grey))
+        return out
+
+    def exposure_geometry(self, i):
+        """Area-weighted mean centre over the exposure and the silhouette's extent."""
+        a, b = self.sub_a[i], self.sub_b[i]
+        r = self.radius_px
+        seg = np.hypot(*(b - a).T)
+        area = np.pi * r * r + 2.0 * r * seg
+        centre = 0.5 * (a + b)
+        mean = (area[:, None] * centre).sum(axis=0) / area.sum()
+        ext = (min(a[:, 0].min(), b[:, 0].min()) - r, max(a[:, 0].max(), b[:, 0].max()) + r,
+               min(a[:, 1].min(), b[:, 1].min()) - r, max(a[:, 1].max(), b[:, 1].max()) + r)
+        return mean, ext
+
+
+def _merge_rois(rois):
+    """Group layers whose pixel boxes intersect: [(Roi, set of keys)], disjoint boxes."""
+    groups = [(roi, {key}) for key, roi in rois.items()]
+    merged = True
+    while merged:
+        merged = False
+        for a in range(len(groups)):
+            for b in range(a + 1, len(groups)):
+                if groups[a][0].intersects(groups[b][0]):
+                    groups[a] = (groups[a][0].union(groups[b][0]), groups[a][1] | groups[b][1])
+                    del groups[b]
+                    merged = True
+                    break
+            if merged:
+                break
+    return groups
+
+
+class _ViewRenderer:
+    """Renders frame i of one view of one throw (deterministic, any order)."""
+
+    def __init__(self, spec, view, track, throw_index, static):
+        self.spec, self.view, self.track = spec, view, track
+        self.throw_index = throw_index
+        self.static = static
+        self.info = {}
+        self._cache = {}
+        self.read_noise = spec.read_noise_dn / 255.0
+
+    def frame_float(self, i):
+        """The noiseless frame i (float, [0, 1]) and its coverage facts."""
+        spec, track = self.spec, self.track
+        shape = (self.view.height, self.view.width)
+        kk = track.kk
+        per_sample = [track.layers(i, j) for j in range(kk)]
+        rois = {}
+        for layers in per_sample:
+            for key, s, _ in layers:
+                roi = _raster.shape_roi(s.extent_px()).clip(shape)
+                if not roi.empty:
+                    rois[key] = rois[key].union(roi) if key in rois else roi
+        groups = _merge_rois(rois)
+        image = self.static.copy()
+        facts = {"coverage_px": 0.0, "moment_u": 0.0, "moment_v": 0.0, "overlap": False,
+                 "blade_overlap": False}
+        for roi, keys in groups:
+            base = self.static[roi.slices]
+            acc = np.zeros(roi.shape)
+            cov = {}
+            for layers in per_sample:
+                sel = [ly for ly in layers if ly[0] in keys]
+                painted, covers = _raster.composite_box(base, sel, roi,
+                                                        supersample=spec.supersample,
+                                                        cache=self._cache)
+                acc += painted
+                for key, (sub, c) in covers.items():
+                    name = "blade" if key in ("tooth0", "tooth1", "hub") else key
+                    if name not in cov:
+                        cov[name] = np.zeros(roi.shape)
+                    cov[name][sub.slice_in(roi)] += c
+            image[roi.slices] = acc / kk
+            if "straw" in cov:
+                straw = cov["straw"] / kk
+                facts["coverage_px"] += float(straw.sum())
+                facts["moment_u"] += float((straw.sum(axis=0) * np.arange(roi.c0, roi.c1)).sum())
+                facts["moment_v"] += float((straw.sum(axis=1) * np.arange(roi.r0, roi.r1)).sum())
+                if "straw2" in cov:
+                    facts["overlap"] |= bool(np.any((straw > 0) & (cov["straw2"] > 0)))
+                if "blade" in cov:
+                    facts["blade_overlap"] |= bool(np.any((straw > 0) & (cov["blade"] > 0)))
+        return image, facts
+
+    def frame(self, i):
+        """Frame i as written: noise added, quantised to ``bit_depth``."""
+        image, facts = self.frame_float(i)
+        self.info[i] = facts
+        rng = np.random.default_rng([self.spec.seed, VIEW_NAMES.index(self.view.name),
+                                     self.throw_index, i, 2])
+        noisy = _raster.add_sensor_noise(image, rng, read_noise=self.read_noise,
+                                         full_well_e=self.spec.full_well_e)
+        return _raster.quantize(noisy, self.spec.bit_depth)

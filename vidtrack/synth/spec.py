@@ -1,0 +1,312 @@
+"""The parameters of a synthetic run: :class:`SynthSpec`, checked when it is made.
+
+Also the names every part of ``vidtrack synth`` shares: the views (``VIEW_NAMES``), the
+footage formats (``FORMATS``), the AVI codecs (``CODECS``), and ``_fail``, which raises
+the :class:`~vidtrack.errors.VidtrackError` of an impossible request.
+"""
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from vidtrack.errors import VidtrackError
+
+__all__ = ["SynthSpec", "VIEW_NAMES", "FORMATS", "CODECS"]
+
+VIEW_NAMES = ("front", "top")
+FORMATS = ("avi", "png", "cine")
+CODECS = ("mjpg", "ffv1", "raw")
+
+
+def _fail(message):
+    raise VidtrackError(message)
+
+
+# ---------------------------------------------------------------------------------------
+# The specification
+# ---------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class SynthSpec:
+    """Every parameter of a synthetic run (units in the names; defaults in brackets).
+
+    Throw (SPEC "World frame"; :func:`fits.throw.position`)
+        ``k`` (k1, k2, k3, k4) [2.2, 2.5, 4.6, 21.3]; ``cp_s_per_m`` drag parameter Cp in
+        s/m [0.115]; ``state`` (x0, y0, z0, vx0, vy0, vz0) at release, m and m/s, vz0
+        absolute [0.24, -0.05, 0, 7.3, 2.6, 2.0]; ``speed_kmh`` machine speed v1 [7.2];
+        ``model`` "quadratic" | "linear" | "free" ["quadratic"]; ``gravity_m_s2``
+        [9.80665].
+    Straw
+        ``straw_length_m`` end to end [0.10]; ``straw_diameter_m`` [0.006];
+        ``spin_rad_s`` rate of the rod's spin after release, None = the rotor's rate
+        (the rod's orientation turns on smoothly) [None]; ``spin_axis`` the fixed world
+        axis it spins about [(0, 0, 1): tumbling in the XOY plane]; ``straw_grey``
+        grey level, a fraction of full scale: above ``background_grey`` a bright
+        straw, below it a dark one [0.85].
+    Machine
+        ``n_rpm``, ``blade_angle_deg`` factors written to scene.toml [550, 0];
+        ``blade_rpm`` the rotor's rate in the footage, None = the rate at which the
+        straw's velocity is continuous at release (its tangential speed at release
+        divided by its radius) [None]; ``blade_radius_m`` tooth radius, None = the
+        release radius sqrt(x0^2 + y0^2) [None]; ``release_frame`` frames before
+        release (the straw rides the tooth) [12].
+    Cameras
+        ``views`` ["front", "top"]; ``size_px`` (width, height) of the front view (and
+        of the top view unless ``top_size_px``) [(480, 360)]; ``top_size_px`` [None];
+        ``fps`` capture rate [1200]; ``playback_fps`` the rate an AVI container states
+        [30]; ``flight_s`` seconds of flight after release [0.4]; ``frames`` frames per
+        view, None = release_frame + round(flight_s * fps) [None]; ``top_delay_s`` the
+        top view's frames are this much later than the front view's [0];
+        ``front_axes``, ``top_axes`` world axes along image column and row
+        [("+x", "-y"), ("+x", "+z")]; ``m_per_px`` scale, None = fit the rotor and the
+        whole flight into the image [None]; ``leave_frame`` fit only the first 55 % of
+        the flight, so that the straw leaves the image [False];
+        ``exposure_fraction`` exposure time / frame interval (0 = no blur) [0.5];
+        ``exposure_samples`` renders averaged per frame [8]; ``supersample`` sub-pixel
+        grid on edges [16].
+    Scene dressing and sensor
+        ``background_grey`` mean background level [0.45]; ``texture_amplitude``
+        standard deviation of the background texture [0.06]; ``vignetting`` relative
+        fall-off of the background's illumination towards the image corners [0.08];
+        ``draw_machine``,
+        ``draw_ruler`` [True, True]; ``read_noise_dn`` Gaussian read noise, sigma in
+        8-bit grey levels (1/255 of full scale) [1.5]; ``full_well_e`` electrons at
+        full scale for Poisson shot noise, None = no shot noise [None].
+    Second straw
+        ``second_straw`` [False]; ``second_cross_s`` the time (main straw's clock) at
+        which both rod centres coincide [0.10]; ``second_flight_s`` how long the second
+        straw has then been flying [0.35]. It leaves the same release point (so it is
+        slower and steeper, falling as the main straw passes), tumbles about a tilted
+        axis at 0.8 times the main straw's spin, and is drawn behind the main straw.
+    Output
+        ``output_format`` "avi" | "png" | "cine" ["avi"]; ``video_codec`` "mjpg"
+        (lossy, ``jpeg_quality`` 0..100) | "ffv1" (lossless) | "raw" (uncompressed)
+        ["mjpg"]; ``jpeg_quality`` [75]; ``bit_depth`` 8 (avi, png, cine), 16 (png,
+        cine), 10 or 12 (cine) [8]; ``cine_packed`` pack 10/12-bit .cine pixels
+        [False]; ``throws`` replicate throws (> 1 writes throws/01 ..) [1];
+        ``throw_spread`` relative random spread of release speed, direction and
+        k1..k4 between replicate throws (not applied with one throw) [0.03]; ``seed``
+        [42]; ``run_name`` None = the output folder's name [None]; ``scale_in_scene``
+        "ruler" | "m_per_px" ["ruler"]; ``sync_in_scene`` write each view's release
+        frame as ``sync_frame`` (else "auto") [False].
+    """
+
+    k: tuple = (2.2, 2.5, 4.6, 21.3)
+    cp_s_per_m: float = 0.115
+    state: tuple = (0.24, -0.05, 0.0, 7.3, 2.6, 2.0)
+    speed_kmh: float = 7.2
+    model: str = "quadratic"
+    gravity_m_s2: float = 9.80665
+    straw_length_m: float = 0.10
+    straw_diameter_m: float = 0.006
+    spin_rad_s: float | None = None
+    spin_axis: tuple = (0.0, 0.0, 1.0)
+    straw_grey: float = 0.85
+    n_rpm: float = 550.0
+    blade_angle_deg: float = 0.0
+    blade_rpm: float | None = None
+    blade_radius_m: float | None = None
+    release_frame: int = 12
+    views: tuple = ("front", "top")
+    size_px: tuple = (480, 360)
+    top_size_px: tuple | None = None
+    fps: float = 1200.0
+    playback_fps: float = 30.0
+    flight_s: float = 0.4
+    frames: int | None = None
+    top_delay_s: float = 0.0
+    front_axes: tuple = ("+x", "-y")
+    top_axes: tuple = ("+x", "+z")
+    m_per_px: float | None = None
+    leave_frame: bool = False
+    exposure_fraction: float = 0.5
+    exposure_samples: int = 8
+    supersample: int = 16
+    background_grey: float = 0.45
+    texture_amplitude: float = 0.06
+    vignetting: float = 0.08
+    draw_machine: bool = True
+    draw_ruler: bool = True
+    read_noise_dn: float = 1.5
+    full_well_e: float | None = None
+    second_straw: bool = False
+    second_cross_s: float = 0.10
+    second_flight_s: float = 0.35
+    output_format: str = "avi"
+    video_codec: str = "mjpg"
+    jpeg_quality: int = 75
+    bit_depth: int = 8
+    cine_packed: bool = False
+    throws: int = 1
+    throw_spread: float = 0.03
+    seed: int = 42
+    run_name: str | None = None
+    scale_in_scene: str = "ruler"
+    sync_in_scene: bool = False
+
+    def __post_init__(self):
+        _validate(self)
+
+    @property
+    def n_frames(self):
+        """Frames per view."""
+        if self.frames is not None:
+            return int(self.frames)
+        return int(self.release_frame) + int(round(self.flight_s * self.fps))
+
+    @property
+    def v1_m_s(self):
+        """Machine speed v1 in m/s."""
+        return self.speed_kmh / 3.6
+
+    def view_size(self, view):
+        """(width, height) of ``view`` in pixels."""
+        if view == "top" and self.top_size_px is not None:
+            return tuple(int(v) for v in self.top_size_px)
+        return tuple(int(v) for v in self.size_px)
+
+    def view_axes(self, view):
+        return tuple(self.front_axes if view == "front" else self.top_axes)
+
+    def to_dict(self):
+        """Every parameter, JSON-ready."""
+        return {f.name: _jsonable(getattr(self, f.name)) for f in fields(self)}
+
+
+def _jsonable(value):
+    """Tuples to lists, numpy scalars to Python numbers."""
+    if isinstance(value, (tuple, list, np.ndarray)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _number(name, value, *, gt=None, ge=None, le=None, integer=False):
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        _fail(f"{name} must be a number, got {value!r}")
+    if integer and float(value) != int(value):
+        _fail(f"{name} must be a whole number, got {value!r}")
+    if not math.isfinite(float(value)):
+        _fail(f"{name} must be finite, got {value!r}")
+    if gt is not None and not value > gt:
+        _fail(f"{name} must be > {gt}, got {value!r}")
+    if ge is not None and not value >= ge:
+        _fail(f"{name} must be >= {ge}, got {value!r}")
+    if le is not None and not value <= le:
+        _fail(f"{name} must be <= {le}, got {value!r}")
+
+
+def _vector(name, value, n):
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        _fail(f"{name} must be {n} numbers, got {value!r}")
+    if arr.shape != (n,) or not np.all(np.isfinite(arr)):
+        _fail(f"{name} must be {n} finite numbers, got {value!r}")
+    return arr
+
+
+def _validate(s):
+    from calibration.errors import InputError
+    from calibration.views import parse_axes
+    from fits.throw import MODELS
+
+    k = _vector("k", s.k, 4)
+    if np.any(k <= 0):
+        _fail(f"k1..k4 must all be > 0, got {list(s.k)}")
+    _number("cp_s_per_m", s.cp_s_per_m, ge=0)
+    state = _vector("state (x0, y0, z0, vx0, vy0, vz0)", s.state, 6)
+    if math.hypot(state[0], state[1]) < 0.02:
+        _fail("the release point (x0, y0) must be at least 0.02 m from the shaft (the "
+              f"straw leaves a tooth), got ({state[0]}, {state[1]})")
+    _number("speed_kmh", s.speed_kmh, ge=0)
+    if s.model not in MODELS:
+        _fail(f"model must be one of {', '.join(MODELS)}, got {s.model!r}")
+    _number("gravity_m_s2", s.gravity_m_s2, gt=0)
+    _number("straw_length_m", s.straw_length_m, gt=0)
+    _number("straw_diameter_m", s.straw_diameter_m, gt=0)
+    if s.straw_diameter_m > s.straw_length_m:
+        _fail(f"straw_diameter_m ({s.straw_diameter_m}) must not exceed straw_length_m "
+              f"({s.straw_length_m})")
+    if s.spin_rad_s is not None:
+        _number("spin_rad_s", s.spin_rad_s)
+    axis = _vector("spin_axis", s.spin_axis, 3)
+    if np.linalg.norm(axis) == 0:
+        _fail("spin_axis must not be the zero vector")
+    for name in ("straw_grey", "background_grey"):
+        _number(name, getattr(s, name), ge=0, le=1)
+    if abs(s.straw_grey - s.background_grey) < 0.05:
+        _fail(f"straw_grey ({s.straw_grey}) must differ from background_grey "
+              f"({s.background_grey}) by at least 0.05, or the straw is invisible")
+    _number("n_rpm", s.n_rpm)
+    _number("blade_angle_deg", s.blade_angle_deg)
+    if s.blade_rpm is not None:
+        _number("blade_rpm", s.blade_rpm)
+    if s.blade_radius_m is not None:
+        _number("blade_radius_m", s.blade_radius_m, gt=0)
+    _number("release_frame", s.release_frame, ge=0, integer=True)
+    if isinstance(s.views, str) or not s.views or len(set(s.views)) != len(s.views) \
+            or any(v not in VIEW_NAMES for v in s.views):
+        _fail(f"views must be front, top or both (no repeats), got {s.views!r}")
+    for name in ("size_px", "top_size_px"):
+        size = getattr(s, name)
+        if size is None:
+            continue
+        if isinstance(size, str) or len(size) != 2 or any(
+                isinstance(v, bool) or not isinstance(v, (int, np.integer)) for v in size):
+            _fail(f"{name} must be two whole numbers (width, height), got {size!r}")
+        if not (32 <= size[0] <= 8192 and 32 <= size[1] <= 8192):
+            _fail(f"{name} must be between 32 and 8192 pixels each way, got {size!r}")
+    _number("fps", s.fps, gt=0)
+    _number("playback_fps", s.playback_fps, gt=0)
+    _number("flight_s", s.flight_s, gt=0)
+    if s.frames is not None:
+        _number("frames", s.frames, ge=1, integer=True)
+    if s.n_frames < 1:
+        _fail("no frames to render: release_frame + flight_s * fps is 0")
+    _number("top_delay_s", s.top_delay_s)
+    for name in ("front_axes", "top_axes"):
+        view = name.split("_")[0]
+        try:
+            axes = parse_axes(getattr(s, name))
+        except InputError as exc:
+            _fail(f"{name}: {exc}")
+        want = ("x", "y") if view == "front" else ("x", "z")
+        if tuple(sorted(a[1] for a in axes)) != want:
+            _fail(f"{name} must be the world axes {want[0]} and {want[1]} (the {view} view "
+                  f"sees them), got {list(getattr(s, name))}")
+    if s.m_per_px is not None:
+        _number("m_per_px", s.m_per_px, gt=0)
+    _number("exposure_fraction", s.exposure_fraction, ge=0, le=1)
+    _number("exposure_samples", s.exposure_samples, ge=1, le=256, integer=True)
+    _number("supersample", s.supersample, ge=1, le=64, integer=True)
+    _number("texture_amplitude", s.texture_amplitude, ge=0, le=0.5)
+    _number("vignetting", s.vignetting, ge=0, le=0.5)
+    _number("read_noise_dn", s.read_noise_dn, ge=0)
+    if s.full_well_e is not None:
+        _number("full_well_e", s.full_well_e, gt=0)
+    if s.second_straw:
+        _number("second_cross_s", s.second_cross_s, gt=0)
+        _number("second_flight_s", s.second_flight_s, gt=0)
+    if s.output_format not in FORMATS:
+        _fail(f"format must be one of {', '.join(FORMATS)}, got {s.output_format!r}")
+    if s.video_codec not in CODECS:
+        _fail(f"codec must be one of {', '.join(CODECS)}, got {s.video_codec!r}")
+    _number("jpeg_quality", s.jpeg_quality, ge=1, le=100, integer=True)
+    depths = {"avi": (8,), "png": (8, 16), "cine": (8, 10, 12, 16)}[s.output_format]
+    if s.bit_depth not in depths:
+        _fail(f"bit_depth {s.bit_depth!r} is not available for {s.output_format}; "
+              f"expected one of {', '.join(map(str, depths))}")
+    if s.cine_packed and not (s.output_format == "cine" and s.bit_depth in (10, 12)):
+        _fail("cine_packed needs format cine with bit_depth 10 or 12")
+    _number("throws", s.throws, ge=1, le=99, integer=True)
+    _number("throw_spread", s.throw_spread, ge=0, le=0.3)
+    _number("seed", s.seed, ge=0, integer=True)
+    if s.scale_in_scene not in ("ruler", "m_per_px"):
+        _fail(f"scale_in_scene must be ruler or m_per_px, got {s.scale_in_scene!r}")
+    if s.scale_in_scene == "ruler" and not s.draw_ruler:
+        _fail("scale_in_scene 'ruler' needs the ruler drawn (draw_ruler); use m_per_px")
+    if s.run_name is not None and (not isinstance(s.run_name, str) or not s.run_name.strip()):
+        _fail(f"run_name must be a non-empty string, got {s.run_name!r}")
+
