@@ -15,8 +15,12 @@ SHARED = REPO.parent / "shared"
 
 @pytest.fixture(scope="session")
 def shared_dir():
-    """``../shared`` beside the checkout (CI has it); tests that need it fail without it."""
-    assert SHARED.is_dir(), f"../shared not found beside the checkout at {SHARED}"
+    """``../shared`` beside the checkout: the project's third-party reference material
+    (real footage and calibrations that may not be copied into the project). CI has it;
+    on a plain clone the tests that need it skip, saying so."""
+    if not SHARED.is_dir():
+        pytest.skip(f"needs ../shared beside the checkout (real third-party footage that is "
+                    f"not part of the project); not found at {SHARED}")
     return SHARED
 
 

@@ -1,6 +1,7 @@
 """The Phantom .cine reader on a real recording, and on every variant the writer makes."""
 
 import struct
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,18 +14,18 @@ from vidtrack.errors import SourceError
 from vidtrack.footage import open_source
 from vidtrack.footage.timebase import check_time_base, check_time_stamps
 
-REAL = "data/cine/cine_legacy.cine"
+#: PIMS's test file, a real Phantom recording (tests/data/cine/SOURCE.md, BSD licence)
+REAL = Path(__file__).resolve().parent / "data" / "cine" / "cine_legacy.cine"
 
 
 @pytest.fixture(scope="module")
-def real(shared_dir):
-    path = shared_dir / REAL
-    with CineSource(path) as src:
+def real():
+    with CineSource(REAL) as src:
         yield src
 
 
 # ---------------------------------------------------------------------------------------
-# The real file (facts from data/cine/SOURCE.md and the file's own headers)
+# The real file (facts from tests/data/cine/SOURCE.md and the file's own headers)
 # ---------------------------------------------------------------------------------------
 def test_real_file_header(real):
     assert len(real) == 97
@@ -47,9 +48,9 @@ def test_real_file_pixels(real):
     assert real.bit_depth == 14 and 4095 < hi < 2 ** 14
 
 
-def test_real_file_rows_are_flipped_to_top_down(real, shared_dir):
+def test_real_file_rows_are_flipped_to_top_down(real):
     """Decode frames straight from the bytes (offset table, annotation) and flip them."""
-    data = (shared_dir / REAL).read_bytes()
+    data = REAL.read_bytes()
     off_offsets, count = struct.unpack_from("<I", data, 32)[0], 97
     offsets = struct.unpack_from(f"<{count}q", data, off_offsets)
     for k in (0, 48, 96):
@@ -76,19 +77,19 @@ def test_real_file_time_stamps(real):
     assert real.trigger_time.year == 2008
 
 
-def test_real_file_range(shared_dir):
-    with open_source(shared_dir / REAL, frames=(10, 20)) as src:
+def test_real_file_range():
+    with open_source(REAL, frames=(10, 20)) as src:
         np.testing.assert_array_equal(src.image_numbers, np.arange(-7712, -7702))
-        with CineSource(shared_dir / REAL) as full:
+        with CineSource(REAL) as full:
             np.testing.assert_array_equal(src[0], full[10])
             assert src.time_s(0) == full.time_s(10)
 
 
-def test_real_file_without_stamps_uses_the_setup_rate(shared_dir):
-    with open_source(shared_dir / REAL, use_time_stamps=False) as src:
+def test_real_file_without_stamps_uses_the_setup_rate():
+    with open_source(REAL, use_time_stamps=False) as src:
         assert src.time_source == "container" and src.fps == 35087
         assert src.time_s(10) == pytest.approx(10 / 35087)
-    with open_source(shared_dir / REAL, fps=35000, use_time_stamps=False) as src:
+    with open_source(REAL, fps=35000, use_time_stamps=False) as src:
         assert src.time_source == "fps" and src.time_s(10) == pytest.approx(10 / 35000)
 
 
