@@ -1,0 +1,312 @@
+"""What a run's ``scene.toml`` (schema 1) holds: the frozen :class:`Scene` and its parts.
+
+A run folder's ``scene.toml`` says where the footage is, at what capture rate, how its
+pixels map to the world frame (axes, origin, scale), and what straw and machine the run
+had (SPEC.md "scene.toml"). A :class:`Scene` is that file validated: the run's name and
+factors, :class:`Physics`, the :class:`Straw` (which fixes the drag parameter Cp), the
+machine's speed and one :class:`ViewSpec` per view (with its :class:`Ruler` when a ruler
+gives the scale). Here too are the schema's constants: the file name, the schema number,
+the world axes each view sees, the default gravity and air density, the Cp tolerance and
+the keys a file may have.
+
+:mod:`vidtrack.scene.read` builds these; :mod:`vidtrack.scene.write` writes what
+:meth:`Scene.to_dict` gives. Every key is documented in ``docs/scene.md``.
+"""
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from vidtrack.scene.folders import find_throw_dirs
+
+SCENE_FILE = "scene.toml"
+#: The scene.toml and experiment.toml schema this package reads and writes.
+SCHEMA = 1
+#: The world axes each view sees (SPEC "Views").
+VIEW_AXES = {"front": ("x", "y"), "top": ("x", "z")}
+
+GRAVITY_M_S2 = 9.80665
+AIR_DENSITY_KG_M3 = 1.205
+#: Largest relative difference accepted between a given Cp and the one computed from
+#: the straw's mass, area and drag coefficient when both are in the file.
+CP_TOLERANCE = 0.01
+
+_TOP_KEYS = ("schema", "run", "factors", "physics", "straw", "machine", "views")
+_VIEW_KEYS = ("source", "fps", "axes", "origin_px", "ruler", "m_per_px", "calibration",
+              "frames", "sync_frame")
+
+
+# --------------------------------------------------------------------------- results
+
+
+@dataclass(frozen=True)
+class Physics:
+    """``[physics]``: gravity and air density.
+
+    Attributes
+    ----------
+    gravity_m_s2 : float
+        g in m/s^2 (default 9.80665).
+    air_density_kg_m3 : float
+        rho in kg/m^3 (default 1.205, air at 20 degC).
+    """
+
+    gravity_m_s2: float = GRAVITY_M_S2
+    air_density_kg_m3: float = AIR_DENSITY_KG_M3
+
+    def to_dict(self):
+        """The ``[physics]`` table."""
+        return {"gravity_m_s2": self.gravity_m_s2, "air_density_kg_m3": self.air_density_kg_m3}
+
+
+@dataclass(frozen=True)
+class Straw:
+    """``[straw]``: what fixes the drag parameter Cp.
+
+    Attributes
+    ----------
+    mass_kg, area_m2, drag_coefficient : float or None
+        m (kg), the average characteristic area a_s (m^2) and C, as given.
+    cp_given_s_per_m : float or None
+        Cp as given directly (``cp_s_per_m`` in the file).
+    gravity_m_s2, air_density_kg_m3 : float
+        g and rho from ``[physics]``, which Cp depends on.
+    """
+
+    mass_kg: float | None = None
+    area_m2: float | None = None
+    drag_coefficient: float | None = None
+    cp_given_s_per_m: float | None = None
+    gravity_m_s2: float = GRAVITY_M_S2
+    air_density_kg_m3: float = AIR_DENSITY_KG_M3
+
+    @property
+    def cp_computed_s_per_m(self):
+        """Cp = sqrt(C a_s rho / (2 m g)) in s/m from the straw's data, or None."""
+        if None in (self.mass_kg, self.area_m2, self.drag_coefficient):
+            return None
+        return math.sqrt(self.drag_coefficient * self.area_m2 * self.air_density_kg_m3
+                         / (2.0 * self.mass_kg * self.gravity_m_s2))
+
+    @property
+    def cp_s_per_m(self):
+        """The drag parameter Cp in s/m (MODEL.md section 1): given, else computed.
+
+        None when neither ``cp_s_per_m`` nor all of mass, area and drag coefficient are
+        in the file (see :attr:`cp_missing`).
+        """
+        if self.cp_given_s_per_m is not None:
+            return self.cp_given_s_per_m
+        return self.cp_computed_s_per_m
+
+    @property
+    def cp_missing(self):
+        """Why Cp is unknown (a sentence), or None when it is known."""
+        if self.cp_s_per_m is not None:
+            return None
+        lacking = [k for k, v in (("mass_kg", self.mass_kg), ("area_m2", self.area_m2),
+                                  ("drag_coefficient", self.drag_coefficient)) if v is None]
+        return ("Cp unknown: scene.toml gives neither straw.cp_s_per_m nor "
+                + ", ".join(f"straw.{k}" for k in lacking))
+
+    def to_dict(self):
+        """The ``[straw]`` table: only the keys that were given."""
+        out = {}
+        for key, value in (("mass_kg", self.mass_kg), ("area_m2", self.area_m2),
+                           ("drag_coefficient", self.drag_coefficient),
+                           ("cp_s_per_m", self.cp_given_s_per_m)):
+            if value is not None:
+                out[key] = value
+        return out
+
+
+@dataclass(frozen=True)
+class Ruler:
+    """A ruler in a view: ``length_m`` spans ``from_px`` .. ``to_px`` (raw pixels)."""
+
+    length_m: float
+    from_px: tuple
+    to_px: tuple
+
+    def to_dict(self):
+        """The ``ruler`` inline table."""
+        return {"length_m": self.length_m, "from_px": list(self.from_px),
+                "to_px": list(self.to_px)}
+
+
+@dataclass(frozen=True)
+class ViewSpec:
+    """One ``[views.NAME]`` table, validated.
+
+    Attributes
+    ----------
+    name : str
+        ``"front"`` (sees X, Y) or ``"top"`` (sees X, Z).
+    source : pathlib.Path
+        The footage (video file, image folder or .cine), resolved against the run
+        folder.
+    source_text : str
+        ``source`` as written in the file (relative paths resolve against the run
+        folder, or against a throw folder: :meth:`source_in`).
+    fps : float
+        Capture rate in frames/s (> 0); wins over any rate the container states.
+    axes : tuple of str
+        World axis along increasing image column, then row (``("+x", "-y")``).
+    origin_px : tuple of float
+        Pixel (u, v) of the world origin O in the raw image.
+    ruler : Ruler or None
+        The ruler, when the scale is given by one.
+    m_per_px_given : float or None
+        ``m_per_px`` as written, when the scale is given directly.
+    calibration : pathlib.Path or None
+        The calibration file named, resolved against the run folder.
+    camera : calibration.CameraCalibration or None
+        Intrinsics and distortion from that file, when it has a ``[camera]`` table.
+    scale : calibration.Scale
+        The scale in effect (from the ruler, ``m_per_px`` or the calibration file). A
+        ruler is measured in undistorted pixels when there is a camera.
+    frames : tuple of int or None
+        Half-open range ``(first, end)`` of 0-based frame indices to use; None: all.
+    sync_frame : int or str
+        Frame of this view at which t = 0, or ``"auto"`` (find it).
+    """
+
+    name: str
+    source: Path
+    source_text: str
+    fps: float
+    axes: tuple
+    origin_px: tuple
+    scale: object
+    ruler: Ruler | None = None
+    m_per_px_given: float | None = None
+    calibration: Path | None = None
+    calibration_text: str | None = None
+    camera: object = None
+    frames: tuple | None = None
+    sync_frame: object = "auto"
+
+    @property
+    def m_per_px(self):
+        """Metres per (undistorted) pixel on the view's world plane."""
+        return self.scale.m_per_px
+
+    @property
+    def world_axes(self):
+        """The two world axes this view sees, in world order (``("x", "y")``)."""
+        return VIEW_AXES[self.name]
+
+    def mapping(self):
+        """The view's pixel <-> world mapping (:class:`calibration.ViewMapping`)."""
+        from calibration.views import ViewMapping
+
+        return ViewMapping(axes=self.axes, origin_px=self.origin_px,
+                           m_per_px=self.m_per_px, camera=self.camera)
+
+    def source_in(self, folder):
+        """The source of this view inside ``folder`` (a throw's subfolder).
+
+        Parameters
+        ----------
+        folder : str or pathlib.Path
+            A throw folder (``<run>/throws/01``) or the run folder.
+
+        Returns
+        -------
+        pathlib.Path
+            ``folder / source_text`` (an absolute ``source_text`` is kept as it is).
+        """
+        return Path(folder) / self.source_text
+
+    def to_dict(self):
+        """The ``[views.NAME]`` table as it would be written."""
+        out = {"source": self.source_text, "fps": self.fps, "axes": list(self.axes),
+               "origin_px": list(self.origin_px)}
+        if self.ruler is not None:
+            out["ruler"] = self.ruler.to_dict()
+        if self.m_per_px_given is not None:
+            out["m_per_px"] = self.m_per_px_given
+        if self.calibration_text is not None:
+            out["calibration"] = self.calibration_text
+        if self.frames is not None:
+            out["frames"] = list(self.frames)
+        out["sync_frame"] = self.sync_frame
+        return out
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated ``scene.toml`` (schema 1).
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The scene file.
+    folder : pathlib.Path
+        The run folder (the file's folder).
+    run_name : str
+        ``run.name``, default the folder's name.
+    factors : dict
+        ``[factors]``: free names to numbers or strings, in the file's order.
+    physics : Physics
+    straw : Straw
+    machine_speed_kmh : float
+        Travel speed v1 in km/h: ``machine.speed_kmh``, else ``factors.speed_kmh``,
+        else 0.
+    machine_speed_from : str
+        Where it came from: ``"machine"``, ``"factors"`` or ``"default"``.
+    views : dict of str to ViewSpec
+        ``"front"`` and/or ``"top"``.
+    hash : str
+        sha256 (hex) of the scene's canonical content (:meth:`to_dict` as sorted JSON)
+        and of the content of every calibration file it names: it changes exactly when
+        something that affects the results changes, not with comments or layout.
+    """
+
+    path: Path
+    folder: Path
+    run_name: str
+    factors: dict
+    physics: Physics
+    straw: Straw
+    machine_speed_kmh: float
+    machine_speed_from: str
+    views: dict
+    hash: str = field(default="", compare=False)
+
+    @property
+    def v1_m_s(self):
+        """The machine's travel speed v1 in m/s (SPEC "World frame")."""
+        return self.machine_speed_kmh / 3.6
+
+    @property
+    def cp_s_per_m(self):
+        """The drag parameter Cp in s/m, or None when the scene does not fix it."""
+        return self.straw.cp_s_per_m
+
+    @property
+    def view_names(self):
+        """The views present, ``front`` before ``top``."""
+        return tuple(v for v in ("front", "top") if v in self.views)
+
+    def throw_dirs(self):
+        """Replicate throws of this run; see :func:`find_throw_dirs`."""
+        return find_throw_dirs(self.folder)
+
+    def to_dict(self):
+        """The scene as a schema-1 dict with defaults filled in.
+
+        ``write_scene(folder, scene.to_dict())`` writes a file that loads back to an
+        equal :class:`Scene`.
+        """
+        out = {"schema": SCHEMA, "run": {"name": self.run_name}}
+        if self.factors:
+            out["factors"] = dict(self.factors)
+        out["physics"] = self.physics.to_dict()
+        straw = self.straw.to_dict()
+        if straw:
+            out["straw"] = straw
+        if self.machine_speed_from == "machine":
+            out["machine"] = {"speed_kmh": self.machine_speed_kmh}
+        out["views"] = {name: self.views[name].to_dict() for name in self.view_names}
+        return out
