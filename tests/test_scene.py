@@ -1,4 +1,7 @@
-"""vidtrack.scene: scene.toml schema 1 and experiment.toml as SPEC.md gives them.
+"""vidtrack.scene: scene.toml schema 1 and experiment.toml, as docs/scene.md gives them.
+
+The examples are read from the user's page (docs/scene.md) and, where ../shared is beside
+the checkout, from the team's contract of the same files (SPEC.md): both must load.
 
 Every bad value must be refused with a SceneError naming the file, the key path and
 what was expected; the writer must write what the loader reads.
@@ -8,6 +11,7 @@ import copy
 import dataclasses
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -28,17 +32,27 @@ from vidtrack.scene import (
 )
 
 
-def spec_block(shared_dir, heading):
-    """The first ```toml block after ``heading`` in ../shared/SPEC.md."""
-    text = (shared_dir / "SPEC.md").read_text(encoding="utf-8")
+DOCS_SCENE = Path(__file__).resolve().parents[1] / "docs" / "scene.md"
+
+
+def toml_block(path, heading):
+    """The first ```toml block after ``heading`` in the Markdown file ``path``."""
+    text = path.read_text(encoding="utf-8")
     start = text.index(heading)
     m = re.search(r"```toml\n(.*?)```", text[start:], re.S)
     return m.group(1)
 
 
-@pytest.fixture
-def spec_scene(shared_dir):
-    return spec_block(shared_dir, "## scene.toml (schema 1)")
+def example(request, docs_heading, spec_heading):
+    """The example of docs/scene.md, or (param "contract") that of ../shared/SPEC.md."""
+    if request.param == "docs":
+        return toml_block(DOCS_SCENE, docs_heading)
+    return toml_block(request.getfixturevalue("shared_dir") / "SPEC.md", spec_heading)
+
+
+@pytest.fixture(params=["docs", "contract"])
+def spec_scene(request):
+    return example(request, "## A complete example", "## scene.toml (schema 1)")
 
 
 def base():
@@ -82,7 +96,7 @@ def test_spec_example_loads(tmp_path, spec_scene):
     assert s.physics.gravity_m_s2 == 9.80665 and s.physics.air_density_kg_m3 == 1.205
     # Cp = sqrt(C a_s rho / (2 m g)) by hand: sqrt(1.0 * 0.0172 * 1.205 / (2 * 0.08 * 9.80665))
     assert s.cp_s_per_m == pytest.approx(0.114931, rel=1e-5)
-    assert s.cp_s_per_m == pytest.approx(0.115, rel=1e-2)   # the SPEC's commented value
+    assert s.cp_s_per_m == pytest.approx(0.115, rel=1e-2)   # the example's commented value
     assert s.v1_m_s == pytest.approx(2.0)                   # 7.2 km/h
     assert s.view_names == ("front", "top")
     front, top = s.views["front"], s.views["top"]
@@ -522,9 +536,9 @@ def test_throw_dirs_problems(tmp_path):
 # ----------------------------------------------------------------- experiment.toml
 
 
-@pytest.fixture
-def spec_experiment(shared_dir):
-    return spec_block(shared_dir, "## Experiment folder")
+@pytest.fixture(params=["docs", "contract"])
+def spec_experiment(request):
+    return example(request, "## experiment.toml", "## Experiment folder")
 
 
 def test_spec_experiment_loads(tmp_path, spec_experiment):
