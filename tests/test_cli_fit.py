@@ -133,6 +133,9 @@ def test_replicate_throws_are_fitted_and_averaged(vidtrack_cli, tmp_path):
     assert record["throws"] == 2
     per = [json.loads((run / "vidtrack" / d / "fit.json").read_text())
            for d in ("01", "02")]
+    for d in ("01", "02"):                      # each throw's tables beside its tracks.h5
+        for name in ("tracks.h5", "tracks.csv", "world.csv"):
+            assert (run / "vidtrack" / d / name).is_file(), (d, name)
     for k in ("k1", "k2", "k3", "k4"):
         values = [p["coefficients"][k]["value"] for p in per]
         assert record["coefficients"][k]["value"] == pytest.approx(np.mean(values))

@@ -125,3 +125,169 @@ def test_read_errors(tmp_path):
         del h["front"]["u_px"]
     with pytest.raises(TrackError, match="u_px"):
         read_tracks(path)
+
+
+# -- tracks.csv and world.csv beside tracks.h5 -------------------------------------------
+
+#: docs/tracker.md's flag table (bit -> name), typed from the documentation.
+FLAG_NAMES = {1: "BORDER", 2: "BLADE", 4: "MERGED", 8: "LOST", 16: "PREDICTED",
+              32: "PRE_RELEASE", 64: "OUTLIER"}
+TRACKS_CSV_FIRST = ["view", "frame", "t_s", "u_px", "v_px", "flags"]
+
+
+def _expected_flag_names(value):
+    return "|".join(name for bit, name in sorted(FLAG_NAMES.items()) if int(value) & bit)
+
+
+def _h5_contents(path):
+    """Every dataset of tracks.h5, read with h5py itself: ({view: {name: array}}, world)."""
+    with h5py.File(path, "r") as h:
+        views = {v: {c: h[v][c][()] for c in h[v]} for v in ("front", "top") if v in h}
+        world = {c: h["world"][c][()] for c in h["world"]} if "world" in h else None
+    return views, world
+
+
+def _assert_tables_match_h5(folder):
+    """tracks.csv and world.csv, read by pandas.read_csv with its defaults, hold exactly
+    what tracks.h5 holds (h5py's reading, not the code's Track objects)."""
+    import csv
+
+    views, world = _h5_contents(folder / "tracks.h5")
+    table = pd.read_csv(folder / "tracks.csv")
+    assert list(table.columns[:6]) == TRACKS_CSV_FIRST
+    assert table.columns[-1] == "flag_names"
+    for v, cols in views.items():
+        # every per-frame dataset of the view, and nothing else (no index column)
+        assert set(table.columns) == set(cols) | {"view", "flag_names"}
+    assert list(dict.fromkeys(table["view"])) == list(views)       # front, then top
+    for v, cols in views.items():
+        rows = table[table["view"] == v]
+        for c, values in cols.items():
+            got = rows[c].to_numpy()
+            assert got.shape == values.shape, (v, c)
+            if values.dtype.kind == "i":
+                assert got.dtype.kind == "i", (v, c)             # integers stay integers
+                assert (got == values).all(), (v, c)
+            else:
+                # the same float64 bits (NaN where tracks.h5 has NaN)
+                np.testing.assert_array_equal(got, values, err_msg=f"{v} {c}", strict=True)
+        names = rows["flag_names"].fillna("").tolist()
+        assert names == [_expected_flag_names(f) for f in cols["flags"]]
+    # NaN is an empty cell in the text, never "nan"
+    with open(folder / "tracks.csv", newline="") as f:
+        raw = list(csv.reader(f))
+    assert raw[0] == list(table.columns)
+    u = raw[0].index("u_px")
+    all_u = np.concatenate([views[v]["u_px"] for v in views])
+    assert [r[u] == "" for r in raw[1:]] == list(np.isnan(all_u))
+    assert "nan" not in (folder / "tracks.csv").read_text().lower()
+
+    wt = pd.read_csv(folder / "world.csv")
+    assert list(wt.columns) == list(world) and list(wt.columns[:4]) == ["t_s", "x_m", "y_m",
+                                                                         "z_m"]
+    for c, values in world.items():
+        np.testing.assert_array_equal(wt[c].to_numpy(dtype=np.float64), values,
+                                      err_msg=f"world {c}", strict=True)
+    with open(folder / "world.csv", newline="") as f:
+        raw = list(csv.reader(f))
+    for i, c in enumerate(raw[0]):
+        assert [r[i] == "" for r in raw[1:]] == list(np.isnan(world[c])), c
+    return table, wt
+
+
+def test_tables_hold_what_tracks_h5_holds(tmp_path):
+    from vidtrack.run.tracks_file import write_tables
+
+    rng = np.random.default_rng(5)
+    tracks = {"front": _track("front", 30, rng), "top": _track("top", 25, rng, release=None)}
+    tracks["top"].data.loc[3, "flags"] = 4 | 1 | 32          # several bits at once
+    world = _world(20, rng)
+    world.data.loc[4, "y_m"] = np.nan
+    out = tmp_path / "vidtrack"
+    write_tracks(out / "tracks.h5", tracks, world)
+    written = write_tables(out, tracks, world)
+    assert sorted(p.name for p in written) == ["tracks.csv", "world.csv"]
+    assert sorted(p.name for p in out.iterdir()) == ["tracks.csv", "tracks.h5", "world.csv"]
+    table, wt = _assert_tables_match_h5(out)
+    assert table.loc[(table["view"] == "top") & (table["frame"] == 13),
+                     "flag_names"].item() == "BORDER|MERGED|PRE_RELEASE"
+    assert len(table) == 55 and len(wt) == 20
+    assert wt["z_m"].isna().all() and wt["y_m"].isna().sum() == 1
+
+
+def test_tables_are_written_whole_or_not_at_all(tmp_path):
+    from vidtrack.run.tracks_file import write_tables
+
+    rng = np.random.default_rng(6)
+    good = _track("front", 10, rng)
+    write_tables(tmp_path, {"front": good})
+    before = (tmp_path / "tracks.csv").read_bytes()
+    bad = Track(data=good.data.drop(columns=["angle_rad"]), **{
+        k: getattr(good, k) for k in ("view", "release_frame", "release_note", "release_t_s",
+                                      "fps", "frame_shape", "noise_sigma", "k_sigma",
+                                      "straw_level", "scatter_px", "notes")})
+    with pytest.raises(TrackError, match="angle_rad"):
+        write_tables(tmp_path, {"front": bad})
+    with pytest.raises(TrackError, match="unknown view"):
+        write_tables(tmp_path, {"side": good})
+    assert (tmp_path / "tracks.csv").read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tracks.csv"]   # no world, no .part
+
+
+@pytest.fixture(scope="module")
+def run42_fitted(tmp_path_factory):
+    """datasets/run42 (without its outputs) fitted by the real command line."""
+    import shutil
+
+    from conftest import REPO, run_vidtrack
+
+    run = tmp_path_factory.mktemp("csv") / "run42"
+    shutil.copytree(REPO / "datasets" / "run42", run, ignore=shutil.ignore_patterns("vidtrack"))
+    res = run_vidtrack("fit", run, "-q")
+    assert res.returncode == 0, res.stderr
+    return run
+
+
+def test_fit_writes_tables_that_read_back_as_tracks_h5(run42_fitted):
+    out = run42_fitted / "vidtrack"
+    table, wt = _assert_tables_match_h5(out)
+    # run42: 372 frames in each view (datasets/README.md), the ride on the rotor flagged
+    assert (table["view"] == "front").sum() == 372 and (table["view"] == "top").sum() == 372
+    assert table["flag_names"].fillna("").str.contains("PRE_RELEASE").any()
+    assert wt["x_m"].notna().all() and wt["y_m"].notna().sum() > 300
+    assert not list(out.glob(".*.part"))
+
+
+def test_reused_tracks_write_missing_or_outdated_tables(run42_fitted):
+    import json
+    import os
+
+    from conftest import run_vidtrack
+
+    out = run42_fitted / "vidtrack"
+    if not (out / "tracks.csv").exists():                       # the test above may not run
+        assert run_vidtrack("fit", run42_fitted, "-q").returncode == 0
+    first = {n: (out / n).read_bytes() for n in ("tracks.csv", "world.csv")}
+    h5_before = (out / "tracks.h5").stat().st_mtime_ns
+    for n in first:
+        (out / n).unlink()
+    res = run_vidtrack("fit", run42_fitted, "-q")
+    assert res.returncode == 0, res.stderr
+    assert (out / "tracks.h5").stat().st_mtime_ns == h5_before          # the tracks reused
+    assert {n: (out / n).read_bytes() for n in first} == first           # written again
+    _assert_tables_match_h5(out)
+
+    # tracks.h5 edited by hand (a frame flagged OUTLIER): the tables follow the file
+    with h5py.File(out / "tracks.h5", "a") as h:
+        flags = h["front"]["flags"][()]
+        i = int(np.flatnonzero(flags == 0)[0])
+        flags[i] = 64
+        h["front"]["flags"][...] = flags
+    later = (out / "tracks.csv").stat().st_mtime_ns + 1_000_000_000      # a second later
+    os.utime(out / "tracks.h5", ns=(later, later))
+    res = run_vidtrack("fit", run42_fitted, "--json", "-q")
+    assert res.returncode == 0, res.stderr
+    assert json.loads(res.stdout)["stages_reused"] == ["tracks"]
+    table, _ = _assert_tables_match_h5(out)
+    row = table[(table["view"] == "front")].iloc[i]
+    assert row["flags"] == 64 and row["flag_names"] == "OUTLIER"

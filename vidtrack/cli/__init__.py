@@ -25,7 +25,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
     os.environ.setdefault(_var, "1")
 
 #: Subcommands in the order ``vidtrack --help`` lists them (module names in this package).
-COMMANDS = ("fit", "report", "anova", "predict", "synth", "frames", "calibrate", "bench")
+COMMANDS = ("init", "fit", "report", "anova", "predict", "synth", "frames", "calibrate", "bench")
 
 
 def _load(name):

@@ -149,6 +149,8 @@ def _track_views(scene, folder, options, timings, workers):
 def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers):
     """Tracks and the world track: reused from tracks.h5 when nothing changed.
 
+    Writes tracks.h5 and, beside it, tracks.csv and world.csv (the same numbers).
+
     Returns the tracks' key, the tracks, the world track, whether they were reused, and
     the worker process that is to draw the report (or None).
     """
@@ -157,16 +159,19 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers):
                                for n, v in scene.views.items()}})
     h5 = out_dir / "tracks.h5"
     if not options.force and stages.get("tracks") == key and h5.is_file():
-        from vidtrack.run.tracks_file import read_tracks
+        from vidtrack.run.tracks_file import read_tracks, write_tables
 
         t0 = time.perf_counter()
         tf = read_tracks(h5)
         if tf.world is not None:
+            # tracks.csv and world.csv belong to this stage: a missing one (or one older
+            # than a tracks.h5 edited by hand) is written from the tracks reused
+            write_tables(out_dir, tf.tracks, tf.world, missing_only=True)
             timings["tracks_reused"] = time.perf_counter() - t0
             return key, tf.tracks, tf.world, True, None
     tracks, helper = _track_views(scene, folder, options, timings, workers)
     from vidtrack.world.orthogonal import merge_tracks
-    from vidtrack.run.tracks_file import write_tracks
+    from vidtrack.run.tracks_file import write_tables, write_tracks
 
     t0 = time.perf_counter()
     mappings = {n: v.mapping() for n, v in scene.views.items()}
@@ -179,6 +184,7 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers):
         helper.send_tracks({n: tr.data for n, tr in tracks.items()})
     write_tracks(h5, tracks, world, scene_hash=scene.hash,
                  calibration={n: v.to_dict() for n, v in scene.views.items()})
+    write_tables(out_dir, tracks, world)        # tracks.csv, world.csv: the same numbers
     return key, tracks, world, False, helper
 
 

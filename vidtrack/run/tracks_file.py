@@ -21,6 +21,11 @@ gives, per view, the source-clock time that is t = 0.
 ...              scene_hash=scene.hash, calibration={"front": m.to_dict()})
 >>> f = read_tracks("run42/vidtrack/tracks.h5")                         # doctest: +SKIP
 >>> f.tracks["front"].data, f.world.data                              # doctest: +SKIP
+
+Beside it, the same numbers as tables (:func:`write_tables`): ``tracks.csv`` (one row
+per view and frame: ``view``, the view's datasets, and ``flag_names``, e.g.
+``MERGED|PRE_RELEASE``) and ``world.csv`` (``/world``'s datasets), full float precision, NaN
+as an empty cell, read back by ``pandas.read_csv`` equal to what tracks.h5 holds.
 """
 
 import json
@@ -33,12 +38,19 @@ import pandas as pd
 from vidtrack._atomic import atomic_path
 from vidtrack.errors import TrackError
 
-__all__ = ["TracksFile", "write_tracks", "read_tracks", "SCHEMA"]
+__all__ = ["TracksFile", "write_tracks", "read_tracks", "write_tables", "tracks_table",
+           "world_table", "SCHEMA", "TRACKS_CSV", "WORLD_CSV"]
 
 #: Layout version written to the root attribute ``schema``.
 SCHEMA = 1
 _VIEWS = ("front", "top")
 _FLOAT_COLS = ("t_s", "u_px", "v_px", "area_px", "angle_rad", "length_px")
+_WORLD_COLS = ("t_s", "x_m", "y_m", "z_m")
+#: The tables written beside tracks.h5 by :func:`write_tables`.
+TRACKS_CSV = "tracks.csv"
+WORLD_CSV = "world.csv"
+# tracks.csv's leading columns; the view's other datasets follow, then flag_names
+_TRACKS_CSV_FIRST = ("view", "frame", "t_s", "u_px", "v_px", "flags")
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,6 +105,17 @@ def _num(value):
     return float("nan") if value is None else float(value)
 
 
+def _check_tracks(tracks, label):
+    from vidtrack.track.tracker import TRACK_COLUMNS
+
+    for v, tr in tracks.items():
+        if v not in _VIEWS:
+            raise TrackError(f"{label}: unknown view {v!r}; expected front or top")
+        missing = [c for c in TRACK_COLUMNS if c not in tr.data]
+        if missing:
+            raise TrackError(f"{label}: the {v} track lacks columns {missing}")
+
+
 def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
     """Write ``tracks.h5`` atomically.
 
@@ -124,15 +147,10 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
     import h5py
 
     from vidtrack import __version__
-    from vidtrack.track.tracker import FLAGS, TRACK_COLUMNS
+    from vidtrack.track.tracker import FLAGS
 
     path = Path(path)
-    for v, tr in tracks.items():
-        if v not in _VIEWS:
-            raise TrackError(f"tracks.h5: unknown view {v!r}; expected front or top")
-        missing = [c for c in TRACK_COLUMNS if c not in tr.data]
-        if missing:
-            raise TrackError(f"tracks.h5: the {v} track lacks columns {missing}")
+    _check_tracks(tracks, "tracks.h5")
     with atomic_path(path) as tmp:
         with h5py.File(tmp, "w") as h:
             h.attrs["schema"] = SCHEMA
@@ -163,7 +181,7 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
                 g.attrs["notes"] = _json(list(tr.notes))
             if world is not None:
                 g = h.create_group("world")
-                for c in ("t_s", "x_m", "y_m", "z_m"):
+                for c in _WORLD_COLS:
                     g.create_dataset(c, data=world.data[c].to_numpy(dtype=np.float64))
                 g.attrs["reference"] = str(world.reference)
                 g.attrs["t0_s"] = _json(world.t0_s)
@@ -252,7 +270,7 @@ def read_tracks(path):
         if "world" in h:
             g = h["world"]
             cols = {}
-            for c in ("t_s", "x_m", "y_m", "z_m"):
+            for c in _WORLD_COLS:
                 if c not in g:
                     raise TrackError(f"{path}: /world has no dataset {c!r}")
                 cols[c] = g[c][()]
@@ -267,3 +285,117 @@ def read_tracks(path):
                 warnings=tuple(json.loads(_attr(g, "warnings", path, "/world"))))
     return TracksFile(tracks=tracks, world=world, vidtrack_version=version,
                       scene_hash=scene_hash, calibration=calibration, path=path)
+
+
+def _flag_names(values):
+    from vidtrack.track.tracker import describe_flags
+
+    names = {}
+    out = []
+    for v in values:
+        v = int(v)
+        if v not in names:
+            names[v] = "|".join(n.upper() for n in describe_flags(v))
+        out.append(names[v])
+    return out
+
+
+def tracks_table(tracks):
+    """The views' tracks as one table, the rows of ``tracks.csv``.
+
+    Parameters
+    ----------
+    tracks : dict of str to vidtrack.track.tracker.Track
+        ``front`` and/or ``top`` (written in that order).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per view and frame: ``view``, ``frame``, ``t_s``, ``u_px``, ``v_px``,
+        ``flags``, the other columns that tracks.h5 keeps for a view (``area_px``,
+        ``angle_rad``, ``length_px``), and ``flag_names`` (the set bits' names in
+        upper case, in bit order, joined by ``|``, e.g. ``MERGED|PRE_RELEASE``; empty
+        when unflagged).
+
+    Raises
+    ------
+    TrackError
+        An unknown view name, or a track without the columns of
+        :data:`vidtrack.track.tracker.TRACK_COLUMNS`.
+    """
+    from vidtrack.track.tracker import TRACK_COLUMNS
+
+    _check_tracks(tracks, TRACKS_CSV)
+    columns = list(_TRACKS_CSV_FIRST) + [c for c in TRACK_COLUMNS
+                                         if c not in _TRACKS_CSV_FIRST] + ["flag_names"]
+    parts = []
+    for v in _VIEWS:
+        if v not in tracks:
+            continue
+        d = tracks[v].data
+        part = {"view": np.full(len(d), v, dtype=object),
+                "frame": d["frame"].to_numpy(dtype=np.int64),
+                "flags": d["flags"].to_numpy(dtype=np.int32)}
+        for c in _FLOAT_COLS:
+            part[c] = d[c].to_numpy(dtype=np.float64)
+        part["flag_names"] = _flag_names(part["flags"])
+        parts.append(pd.DataFrame(part, columns=columns))
+    if not parts:
+        return pd.DataFrame({c: [] for c in columns})
+    return pd.concat(parts, ignore_index=True)
+
+
+def world_table(world):
+    """The world track as a table, the rows of ``world.csv``: ``t_s`` (s since the
+    release), ``x_m``, ``y_m``, ``z_m`` (NaN where not measured)."""
+    return pd.DataFrame({c: world.data[c].to_numpy(dtype=np.float64) for c in _WORLD_COLS})
+
+
+def _write_csv(path, table):
+    # pandas writes each float as its shortest repr (it reads back to the same bits),
+    # NaN as an empty cell; no index column
+    with atomic_path(path) as tmp:
+        table.to_csv(tmp, index=False, na_rep="", lineterminator="\n")
+    return Path(path)
+
+
+def write_tables(folder, tracks, world=None, *, missing_only=False):
+    """Write ``tracks.csv`` and (with a world track) ``world.csv`` into ``folder``.
+
+    The same numbers as tracks.h5 (:func:`write_tracks`), as tables a spreadsheet or
+    ``pandas.read_csv`` reads: full float precision, NaN as an empty cell, a header row,
+    no index column; each file whole or not at all.
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        The output folder (beside tracks.h5; created if missing).
+    tracks : dict of str to vidtrack.track.tracker.Track
+    world : vidtrack.world.orthogonal.WorldTrack, optional
+    missing_only : bool, keyword-only
+        Write only a table that is missing or older than ``folder/tracks.h5`` (for
+        tracks reused from that file).
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+    """
+    folder = Path(folder)
+    h5 = folder / "tracks.h5"
+
+    def wanted(path):
+        if not missing_only:
+            return True
+        try:
+            return (not path.is_file()
+                    or (h5.is_file() and path.stat().st_mtime_ns < h5.stat().st_mtime_ns))
+        except OSError:
+            return True
+
+    written = []
+    if wanted(folder / TRACKS_CSV):
+        written.append(_write_csv(folder / TRACKS_CSV, tracks_table(tracks)))
+    if world is not None and wanted(folder / WORLD_CSV):
+        written.append(_write_csv(folder / WORLD_CSV, world_table(world)))
+    return written
