@@ -1,6 +1,6 @@
 """The orthographic mapping of a view: image pixels to world metres and back.
 
-A view's camera looks square onto one world plane (SPEC "Views"): ``front`` onto XOY,
+A view's camera looks square onto one world plane (docs/reference.md): ``front`` onto XOY,
 ``top`` onto XOZ. Its mapping needs three things: which world axis runs along
 increasing image column and which along increasing row (``axes``, e.g. ``("+x", "-y")``:
 column -> +X, row -> -Y, so up in the image is up in the world), the pixel position of

@@ -1,6 +1,6 @@
 """Flight of a thrown straw after release: stable closed forms of the throw models.
 
-World frame (SPEC.md): origin at the blade shaft, x outward, y up, z along the
+World frame (docs/reference.md): origin at the blade shaft, x outward, y up, z along the
 machine's travel; t = 0 at release; SI units. The machine (and the cameras) move at
 ``v1`` along +z, so z is relative to the machine.
 
@@ -26,7 +26,7 @@ Liao's ``m x'' = -k x'`` is k1 = k2 = k3 = 1 with cp = k_Liao / (m g).
 descent, k3 and k4 have no effect. It is the quadratic model at cp = 0, computed as such.
 
 The printed solutions overflow, cancel or divide by zero outside the paper's own case
-(MODEL.md section 1). The forms here are rewritten with exact identities so that every
+(docs/throw-models.md). The forms here are rewritten with exact identities so that every
 cp >= 0 (cp = 0 included), every k > 0, long times, both signs of vx0 and vy0 and
 downward speeds beyond the terminal speed are evaluated to a few ulp of the terms
 involved; ``tests/test_throw.py`` checks them against ``fits.throw.ode``.

@@ -25,9 +25,9 @@ from fits.blade import (BladeSetting, release, slide_eq2_printed, slide_eq3_seri
                         slide_ode, slide_position)
 from vidtrack.bench._timing import median_time
 
-#: (name, setting) pairs; the first is MODEL.md section 2's case.
+#: (name, setting) pairs; the first is the slide check of docs/predict.md (not published).
 CASES = (
-    ("MODEL.md", BladeSetting(550, -10, radius_m=0.25, start_m=0.10, friction=0.5,
+    ("slide check", BladeSetting(550, -10, radius_m=0.25, start_m=0.10, friction=0.5,
                               phase_deg=30)),
     ("worked example", BladeSetting(450, -10)),
     ("backward rake, slow", BladeSetting(350, 10)),

@@ -1,9 +1,9 @@
 """``scene.toml`` (schema 1) and ``experiment.toml``: read, validate, write.
 
 A run folder's ``scene.toml`` says where the footage is, at what capture rate, how its
-pixels map to the world frame, and what straw and machine the run had (SPEC.md
-"scene.toml"); an experiment folder's ``experiment.toml`` says which runs it holds and how
-its factors are coded. Every key is documented in ``docs/scene.md``. The modules:
+pixels map to the world frame, and what straw and machine the run had; an experiment
+folder's ``experiment.toml`` says which runs it holds and how its factors are coded.
+Every key is documented in ``docs/scene.md``. The modules:
 
 - ``model``: the frozen :class:`Scene` and its parts (:class:`ViewSpec`, :class:`Ruler`,
   :class:`Physics`, :class:`Straw`) and the schema's constants;

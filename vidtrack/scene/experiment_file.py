@@ -45,7 +45,7 @@ class Factor:
 
 @dataclass(frozen=True)
 class Experiment:
-    """A validated ``experiment.toml`` (SPEC "Experiment folder").
+    """A validated ``experiment.toml`` (an experiment folder: docs/scene.md).
 
     Attributes
     ----------

@@ -1,9 +1,10 @@
 """The views of a synthetic run: framing, the machine's dressing, the static scene.
 
-Orthographic cameras (SPEC "Views"). ``_frame_view`` chooses a view's scale and origin
-so that the rotor and the whole flight fit (with ``leave_frame``, only the first 55 % of
-the flight), and places a ruler along world X, with ticks, in a band it keeps free; the
-ruler's two end ticks are the points ``scene.toml``'s ``ruler`` names.
+Orthographic cameras square to the world axes (docs/reference.md). ``_frame_view``
+chooses a view's scale and origin so that the rotor and the whole flight fit (with
+``leave_frame``, only the first 55 % of the flight), and places a ruler along world X,
+with ticks, in a band it keeps free; the ruler's two end ticks are the points
+``scene.toml``'s ``ruler`` names.
 ``_static_image`` draws what does not move: a smooth random texture with a gentle
 illumination fall-off, the machine's housing and the rotor's hood (dark boxes), and the
 ruler. The sizes and grey levels of the machine's parts (teeth, hub, shaft) are set here.

@@ -1,6 +1,6 @@
 """What moves where at time t, in metres: the throws, the straw's pose, the second straw.
 
-World frame of SPEC.md, z relative to the machine; t in seconds from the release
+World frame (docs/reference.md), z relative to the machine; t in seconds from the release
 (negative: before it). Before release (t < 0) the straw rides a tooth of the rotor,
 sliding outward; at t = 0 it leaves at the release state and flies on the throw model of
 :func:`fits.throw.position`, spinning about a fixed axis (:func:`straw_pose`). The rotor
@@ -98,7 +98,7 @@ def straw_pose(t, throw_state, k, *, spec, blade_rad_s, spin_rad_s):
     Returns
     -------
     centre, direction : numpy.ndarray, shape (N, 3)
-        World frame of SPEC.md; z relative to the machine.
+        World frame; z relative to the machine.
 
     Notes
     -----

@@ -11,10 +11,14 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from vidtrack.errors import VidtrackError
+from vidtrack.scene.model import FPS_RANGE
 
 __all__ = ["SynthSpec", "VIEW_NAMES", "FORMATS", "CODECS"]
 
 VIEW_NAMES = ("front", "top")
+#: Most frames rendered per view (and most frames of release and delay): 83 s at
+#: 1200 fps, far beyond any throw; a larger count is a typo that would fill the disk.
+MAX_FRAMES = 100_000
 FORMATS = ("avi", "png", "cine")
 CODECS = ("mjpg", "ffv1", "raw")
 
@@ -30,7 +34,7 @@ def _fail(message):
 class SynthSpec:
     """Every parameter of a synthetic run (units in the names; defaults in brackets).
 
-    Throw (SPEC "World frame"; :func:`fits.throw.position`)
+    Throw (the world frame of docs/reference.md; :func:`fits.throw.position`)
         ``k`` (k1, k2, k3, k4) [2.2, 2.5, 4.6, 21.3]; ``cp_s_per_m`` drag parameter Cp in
         s/m [0.115]; ``state`` (x0, y0, z0, vx0, vy0, vz0) at release, m and m/s, vz0
         absolute [0.24, -0.05, 0, 7.3, 2.6, 2.0]; ``speed_kmh`` machine speed v1 [7.2];
@@ -260,12 +264,24 @@ def _validate(s):
             _fail(f"{name} must be between 32 and 8192 pixels each way, got {size!r}")
     _number("fps", s.fps, gt=0)
     _number("playback_fps", s.playback_fps, gt=0)
+    low, high = FPS_RANGE
+    for name in ("fps", "playback_fps"):
+        if not low <= getattr(s, name) <= high:
+            _fail(f"{name} must be between {low:g} and {high:g} frames/s, "
+                  f"got {getattr(s, name)!r}")
     _number("flight_s", s.flight_s, gt=0)
     if s.frames is not None:
-        _number("frames", s.frames, ge=1, integer=True)
+        _number("frames", s.frames, ge=1, le=MAX_FRAMES, integer=True)
+    _number("release_frame", s.release_frame, le=MAX_FRAMES)
     if s.n_frames < 1:
         _fail("no frames to render: release_frame + flight_s * fps is 0")
+    if s.n_frames > MAX_FRAMES:
+        _fail(f"{s.n_frames:.6g} frames per view (release_frame + flight_s * fps); at most "
+              f"{MAX_FRAMES} are rendered: give a shorter flight_s or a lower fps")
     _number("top_delay_s", s.top_delay_s)
+    if abs(s.top_delay_s) * s.fps > MAX_FRAMES:
+        _fail(f"top_delay_s = {s.top_delay_s!r} s is {abs(s.top_delay_s) * s.fps:g} frames "
+              f"at {s.fps:g} fps; expected at most {MAX_FRAMES} frames")
     for name in ("front_axes", "top_axes"):
         view = name.split("_")[0]
         try:

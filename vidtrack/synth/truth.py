@@ -187,6 +187,6 @@ _CONVENTIONS = {
              "border_touch: in view and reaching the outermost pixel row or column; "
              "blade_overlap: shares a pixel with a tooth or the hub/shaft; overlap: "
              "shares a pixel with the second straw",
-    "world": "x_m, y_m, z_m: the rod centre in the world frame of SPEC.md at t_s "
+    "world": "x_m, y_m, z_m: the rod centre in the world frame (docs/reference.md) at t_s "
              "(z relative to the machine); before release the straw rides a tooth",
 }
