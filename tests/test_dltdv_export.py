@@ -1,0 +1,56 @@
+"""vidtrack.run.dltdv_export: the run's points in DLTdv's layout, read back by the reader
+of DLTdv files (vidtrack.track.digitized) and compared with what went in."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from calibration.projective import ProjectiveCamera
+from vidtrack.run.dltdv_export import write_dltdv
+from vidtrack.track.digitized import read_points
+from vidtrack.world.calibrated import triangulate_views
+
+
+def test_round_trip_through_dltdv_files(shared_dir, tmp_path):
+    d = shared_dir / "data" / "real" / "multicam3_dlt"
+    src = d / "DLTdv7_data_gravityxypts.csv"
+    L = np.loadtxt(d / "2018-08-17_wand_dltCoefs.csv", delimiter=",")
+    cams = {f"cam{j + 1}": ProjectiveCamera.from_dlt(L[:, j], pixel_origin="bottom-left",
+                                                     name=f"cam{j + 1}") for j in range(3)}
+    tracks = {n: read_points(src, fps=25, camera=j + 1, view=n) for j, n in enumerate(cams)}
+    world = triangulate_views(tracks, cams, fps=dict.fromkeys(cams, 25.0),
+                              sync=dict.fromkeys(cams, 0), up=[0, 0, 1])
+    files = write_dltdv(tmp_path, tracks, world, cameras=cams)
+    assert [f.name for f in files] == ["xypts.csv", "xyzpts.csv", "xypts_cameras.txt"]
+    original = pd.read_csv(src)
+    exported = pd.read_csv(tmp_path / "xypts.csv")
+    # the same pixels in the same columns; rows up to the last frame any camera saw
+    n = len(exported)
+    np.testing.assert_array_equal(exported.to_numpy(), original.to_numpy()[:n])
+    assert original.iloc[n:].isna().all().all()
+    for j, name in enumerate(cams):
+        back = read_points(tmp_path / "xypts.csv", fps=25, camera=j + 1)
+        np.testing.assert_array_equal(back.usable, tracks[name].usable[: len(back.usable)])
+    xyz = pd.read_csv(tmp_path / "xyzpts.csv")
+    ok = world.data["flags"].to_numpy() == 0
+    np.testing.assert_allclose(xyz.to_numpy()[ok], world.data[["X_m", "Y_m", "Z_m"]][ok])
+    assert xyz.to_numpy()[~ok].size == 0 or np.isnan(xyz.to_numpy()[~ok]).all()
+    assert (tmp_path / "xypts_cameras.txt").read_text() == "cam1 = cam1\ncam2 = cam2\ncam3 = cam3\n"
+
+
+def test_tracked_pixels_are_flipped_for_a_bottom_left_camera(tmp_path):
+    from vidtrack.track.tracker import Track
+
+    data = pd.DataFrame({"frame": [0, 1], "t_s": [0, 0.01], "u_px": [10.0, 11.0],
+                         "v_px": [100.0, 90.0], "area_px": [5.0, 5.0], "angle_rad": [0.0, 0.0],
+                         "length_px": [3.0, 3.0], "flags": [0, 0]})
+    tr = Track(data=data, view="a", release_frame=None, release_note="", release_t_s=None,
+               fps=100.0, frame_shape=(480, 640), noise_sigma=1.0, k_sigma=5.0,
+               straw_level=200.0, scatter_px=0.1)
+    cam = ProjectiveCamera.from_dlt([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0.1],
+                                    pixel_origin="bottom-left")
+    world = pd.DataFrame({"t_s": [0.0], "x_m": [1.0], "y_m": [2.0], "z_m": [3.0]})
+    write_dltdv(tmp_path, {"a": tr}, type("W", (), {"data": world})(), cameras={"a": cam})
+    xy = pd.read_csv(tmp_path / "xypts.csv")
+    assert xy["pt1_cam1_Y"].tolist() == pytest.approx([380.0, 390.0])
+    assert pd.read_csv(tmp_path / "xyzpts.csv").iloc[0].tolist() == [1.0, 2.0, 3.0]
