@@ -5,7 +5,14 @@ This package imports numpy and cv2; never ``vidtrack`` or ``fits``.
 Its names are loaded from their modules on first use (PEP 562): ``import calibration``
 (and ``calibration.errors``, which every vidtrack command imports) stays light, while the
 camera model pulls in scipy.
+
+Messages are log records under the ``calibration`` logger (a ``NullHandler`` only, as a
+library's should be).
 """
+
+import logging
+
+logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 _EXPORTS = {
     "calibration.errors": ("InputError",),

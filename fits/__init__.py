@@ -16,8 +16,16 @@ Modules (import what you use; ``import fits`` stays light):
 
 This package imports numpy, scipy and pandas; never cv2, never ``vidtrack`` or
 ``calibration``.
+
+Messages (what was eliminated, what a fit could not determine) are log records under the
+``fits`` logger, which has only a ``NullHandler``: configure logging to see them, e.g.
+``logging.basicConfig(level=logging.INFO)``.
 """
 
+import logging
+
 from fits.errors import ConvergenceError, InputError
+
+logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 __all__ = ["ConvergenceError", "InputError"]

@@ -50,10 +50,10 @@ with D and M as printed, but with (derived here from l(0) = l1, l'(0) = 0)::
 
 The paper prints C2 with ``- sin(...)``; eq. 2 as printed therefore misses its own
 initial condition by ``-g sin(alpha0 - delta1 + phi) / (2 omega^2)`` (-1.36 mm in the
-MODEL.md case), an error that decays as ``exp(lambda2 omega t)``. Eq. 3 is the Taylor
-series of the exact solution to second order, ``l1 + a0 t^2 / 2`` with
-``a0 = l''(0)``; it ignores the Coriolis friction ``-2 mu omega l'`` and so
-overestimates the slide (8.7 % at t = 20 ms in the MODEL.md case).
+slide check of docs/predict.md), an error that decays as ``exp(lambda2 omega t)``.
+Eq. 3 is the Taylor series of the exact solution to second order, ``l1 + a0 t^2 / 2``
+with ``a0 = l''(0)``; it ignores the Coriolis friction ``-2 mu omega l'`` and so
+overestimates the slide (8.7 % at t = 20 ms in that case).
 
 Release (eq. 8): the straw leaves at the tip, ``l = R cos(delta1)`` (``rho = R``); here
 found by root finding on the exact solution. Relative speed (eq. 4) ``v_r = l'(t0)``,
@@ -115,18 +115,18 @@ class BladeSetting:
     blade_angle_deg : float
         Rake angle delta1, degrees (-90 < delta1 < 90; > 0 leans back).
     radius_m : float
-        Tip radius R, m (> 0). Default 0.25 (the MODEL.md case; not published).
+        Tip radius R, m (> 0). Default 0.25 (an assumption; not published).
     start_m : float
         The straw's moving coordinate at the impact, l1, m; must lie inside the blade,
-        ``l1 < R cos(delta1)``. Default 0.10 (the MODEL.md case; not published).
+        ``l1 < R cos(delta1)``. Default 0.10 (an assumption; not published).
     friction : float
-        Equivalent friction coefficient mu (>= 0). Default 0.5 (the MODEL.md case).
+        Equivalent friction coefficient mu (>= 0). Default 0.5 (an assumption; not published).
     phase_deg : float
         Initial phase alpha0, degrees (the blade's angle from straight down at the impact,
         in the direction of rotation). Default -30: not published; our assumption that
         the blade meets the straw shortly before its lowest point, where it enters the
         straw layer (a 0.25 m tip working 50 mm deep, section 3.2, enters the soil at
-        -37 deg). MODEL.md's slide check uses 30.
+        -37 deg). The slide check of docs/predict.md uses 30.
     g_m_s2 : float
         Gravity, m/s^2.
 
@@ -502,7 +502,7 @@ def throwing_conditions(setting):
 class Release:
     """The straw at the moment it leaves the blade tip (Chen 2018, eqs. 4, 8, 9, 10).
 
-    Angles in rad, speeds in m/s, positions in m in the world frame of SPEC.md (origin at
+    Angles in rad, speeds in m/s, positions in m in the world frame (origin at
     the blade shaft, x outward, y up). Fields are ``nan`` when the straw never reaches
     the tip; ``thrown`` is False then, and ``violations`` says why.
 
@@ -548,6 +548,17 @@ class Release:
     vz0_m_s: float
     min_normal_accel_m_s2: float
     conditions: tuple = field(default_factory=tuple)
+
+    def __repr__(self):
+        s = self.setting
+        if not self.thrown:
+            why = ", ".join(c.name for c in self.violations)
+            return (f"Release(n_rpm={s.n_rpm:g}, blade_angle_deg={s.blade_angle_deg:g}, "
+                    f"method={self.method!r}, thrown=False: {why} fail)")
+        return (f"Release(n_rpm={s.n_rpm:g}, blade_angle_deg={s.blade_angle_deg:g}, "
+                f"method={self.method!r}, release_time_s={self.release_time_s:.4g}, "
+                f"absolute_speed_m_s={self.absolute_speed_m_s:.4g}, "
+                f"release_angle_deg={math.degrees(self.release_angle_rad):.4g})")
 
     @property
     def thrown(self):

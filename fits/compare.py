@@ -26,7 +26,7 @@ from pathlib import Path
 import pandas as pd
 
 from fits.rsm._table import match_name
-from fits.rsm._text import format_table
+from fits._text import Report, Table
 from fits.errors import InputError
 
 __all__ = ["Comparison", "ComparisonRow", "compare", "printed_unit", "read_published"]
@@ -153,10 +153,39 @@ class Comparison:
     rows: tuple
     notes: tuple = ()
 
+    def __repr__(self):
+        from pathlib import PurePath
+
+        return (f"Comparison(source={PurePath(self.source).name!r}, rows={len(self.rows)}, "
+                f"flagged={len(self.flagged)}, notes={len(self.notes)})")
+
     @property
     def flagged(self):
         """Rows whose status is not ``match``."""
         return tuple(r for r in self.rows if r.status != "match")
+
+    def to_frame(self, response=None):
+        """The compared numbers as a DataFrame, one row per printed number.
+
+        Parameters
+        ----------
+        response : str, optional
+            Only this analysed response's rows.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``response``, ``source`` (the ANOVA row or term), ``quantity``,
+            ``printed`` (the text as published), ``published``, ``computed``,
+            ``difference`` (computed - published; NaN when missing), ``status`` and
+            ``note``.
+        """
+        import pandas as pd
+
+        rows = self.rows if response is None else self.rows_for(response)
+        cols = ["response", "source", "quantity", "printed", "published", "computed",
+                "difference", "status", "note"]
+        return pd.DataFrame([[getattr(r, c) for c in cols] for r in rows], columns=cols)
 
     def rows_for(self, response):
         """Rows of one analysed response (the fit's response name)."""
@@ -169,17 +198,23 @@ class Comparison:
 
     def summary(self, response=None):
         """A text table: published, computed, difference, status and note per number."""
+        return self._report(response).text()
+
+    def _repr_html_(self):
+        """The :meth:`summary` as an HTML table (what a Jupyter notebook shows)."""
+        return self._report().html()
+
+    def _report(self, response=None):
         rows = self.rows if response is None else self.rows_for(response)
         body = [[r.response, r.source, r.quantity, r.printed, _fmt(r.computed),
                  _fmt(r.difference, 3), r.status, r.note] for r in rows]
         head = f"Compared with {self.source}: {len(rows)} numbers, " \
                f"{sum(r.status != 'match' for r in rows)} flagged"
-        text = head + "\n" + format_table(
-            ["Response", "Source", "Qty", "Published", "Computed", "Diff", "Status", "Note"],
-            body, align="lllrrrll")
+        parts = [head, Table(["Response", "Source", "Qty", "Published", "Computed", "Diff",
+                              "Status", "Note"], body, align="lllrrrll")]
         if response is None and self.notes:
-            text += "\n" + "\n".join(f"Note: {n}" for n in self.notes)
-        return text
+            parts += [f"Note: {n}" for n in self.notes]
+        return Report(parts)
 
 
 def _status(quantity, text, published, computed):

@@ -19,18 +19,22 @@ Example
 """
 
 import itertools
+import logging
 from dataclasses import dataclass
 
 import numpy as np
 
-from fits.rsm._stats import AnovaRow, f_row, least_squares, ratio, studentized_external
+from fits.rsm._stats import (AnovaRow, anova_frame, f_row, least_squares, ratio,
+                             studentized_external)
 from fits.rsm._table import (label_column, numeric_column, require_columns, run_labels,
                              source_of)
 from fits.rsm._terms import estimable_columns
-from fits.rsm._text import fmt_f, fmt_num, fmt_p, format_table
+from fits._text import Report, Table, fmt_f, fmt_num, fmt_p
 from fits.errors import InputError
 
 __all__ = ["OrthogonalFit", "RangeAnalysis", "fit_orthogonal", "parse_interaction"]
+
+log = logging.getLogger(__name__)
 
 
 def parse_interaction(text):
@@ -109,10 +113,71 @@ class OrthogonalFit:
     leverage: np.ndarray
     studentized: np.ndarray
 
+    def __repr__(self):
+        return (f"OrthogonalFit(response={self.response!r}, factors={len(self.factors)}, "
+                f"interactions={len(self.interactions)}, r2={self.r2:.4g}, "
+                f"n={len(self.observed)})")
+
     @property
     def term_names(self):
         """Factor and interaction names in table order."""
         return tuple(self.factors) + tuple(f"{a}:{b}" for a, b in self.interactions)
+
+    def _anova_label(self, key):
+        return key.capitalize() if key in ("model", "error", "total") else key
+
+    @property
+    def anova_table(self):
+        """The ANOVA as a DataFrame, rows named and ordered as :meth:`summary` prints them.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Index ``source``: the factor columns, the interactions ``a:b``, ``Model``,
+            ``Error``, ``Total``; columns ``ss``, ``df``, ``ms``, ``f``, ``p`` in full
+            precision (NaN where the printed table is blank) and ``ss_pct``, the percent
+            contribution to the total sum of squares.
+        """
+        out = anova_frame(self.anova, {k: self._anova_label(k) for k in self.anova})
+        pct = {self._anova_label(k): v for k, v in self.percent_contribution.items()}
+        out["ss_pct"] = [pct.get(name, float("nan")) for name in out.index]
+        return out
+
+    @property
+    def range_table(self):
+        """The range analysis: one row per factor, ranked by the range R.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Index ``factor`` in rank order; columns ``rank``, ``range`` (max - min of
+            the level means, response units), ``ss_pct`` and ``levels`` (how many).
+            The level means themselves are :attr:`level_means`.
+        """
+        import pandas as pd
+
+        rows = [{"factor": n, "rank": self.range_analysis[n].rank,
+                 "range": self.range_analysis[n].range,
+                 "ss_pct": self.percent_contribution.get(n, float("nan")),
+                 "levels": len(self.range_analysis[n].levels)} for n in self.order_by_range]
+        return pd.DataFrame(rows).set_index("factor")
+
+    @property
+    def level_means(self):
+        """Mean response at each level of each factor (the range analysis' means).
+
+        Returns
+        -------
+        pandas.DataFrame
+            MultiIndex ``(factor, level)`` in table order; columns ``mean`` (response
+            units) and ``runs`` (runs at that level).
+        """
+        import pandas as pd
+
+        rows = [{"factor": f, "level": lv, "mean": ra.level_means[lv],
+                 "runs": ra.level_counts[lv]}
+                for f in self.factors for ra in [self.range_analysis[f]] for lv in ra.levels]
+        return pd.DataFrame(rows).set_index(["factor", "level"])
 
     def to_dict(self):
         """The JSON object of ``vidtrack anova --design orthogonal --json``."""
@@ -135,7 +200,23 @@ class OrthogonalFit:
         }
 
     def summary(self):
-        """A readable text report: ANOVA with significance marks, range analysis."""
+        """A readable text report, like statsmodels' ``summary()``.
+
+        What ``vidtrack anova --design orthogonal`` prints for a response: the ANOVA with
+        significance marks (``*`` p <= alpha, ``**`` p < 0.01) and percent contribution,
+        the range analysis ranked by R, the order of influence, R² and the notes.
+
+        Returns
+        -------
+        str
+        """
+        return self._report().text()
+
+    def _repr_html_(self):
+        """The :meth:`summary` as HTML tables (what a Jupyter notebook shows)."""
+        return self._report().html()
+
+    def _report(self):
         lines = [f"Response {self.response}: fixed-effects ANOVA, factors categorical"
                  + (", interactions " + ", ".join(f"{a}:{b}" for a, b in self.interactions)
                     if self.interactions else "")]
@@ -146,24 +227,25 @@ class OrthogonalFit:
             mark = ""
             if r.p is not None:
                 mark = "**" if r.p < 0.01 else ("*" if r.p <= self.alpha else "")
-            label = key.capitalize() if key in ("model", "error", "total") else "  " + key
+            label = (self._anova_label(key) if key in ("model", "error", "total")
+                     else "  " + key)
             pct = self.percent_contribution.get(key)
             rows.append([label, fmt_num(r.ss), r.df, fmt_num(r.ms), fmt_f(r.f), fmt_p(r.p),
                          mark, "" if pct is None else f"{pct:.2f}"])
-        lines += ["", format_table(["Source", "SS", "df", "MS", "F", "p", "", "% of SS"],
-                                   rows, align="lrrrrrlr")]
+        lines += ["", Table(["Source", "SS", "df", "MS", "F", "p", "", "% of SS"],
+                            rows, align="lrrrrrlr")]
         rrows = []
         for name in self.order_by_range:
             ra = self.range_analysis[name]
             means = "  ".join(f"{lv}: {fmt_num(ra.level_means[lv], sig=4)}" for lv in ra.levels)
             rrows.append([ra.rank, name, means, fmt_num(ra.range, sig=4)])
         lines += ["", "Range analysis (ranked by range R):",
-                  format_table(["Rank", "Factor", "Level means", "R"], rrows, align="rllr"),
+                  Table(["Rank", "Factor", "Level means", "R"], rrows, align="rllr"),
                   "Order of influence (by the ANOVA, as Hou 2019 states it): "
                   + " > ".join(self.order_of_influence)]
         lines += [f"R2 {fmt_num(self.r2, sig=4)}   adj R2 {fmt_num(self.adj_r2, sig=4) or 'n/a'}"]
         lines += [f"Note: {n}" for n in self.notes]
-        return "\n".join(lines)
+        return Report(lines)
 
 
 def fit_orthogonal(table, response, factors, *, interactions=(), alpha=0.05):
@@ -305,6 +387,8 @@ def fit_orthogonal(table, response, factors, *, interactions=(), alpha=0.05):
                      "unequal numbers of runs")
     pct = {k: 100.0 * anova[k].ss / sst for k in names}
     pct["error"] = 100.0 * full.sse / sst
+    for note in notes:
+        log.info("%s: %s", response, note)
     r2 = ssm / sst
     adj = ratio(full.sse, full.df_resid)
     adj_r2 = 1.0 - adj / (sst / (n - 1)) if adj is not None else None

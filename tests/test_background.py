@@ -113,3 +113,12 @@ def test_sample_background_from_a_video_file(tmp_path):
     assert np.sqrt(np.mean((bg.image - scene) ** 2)) < 1.0
     assert bg.noise_sigma == pytest.approx(1.0, rel=0.25)
     assert bg.to_dict()["n_samples"] == 15
+
+
+def test_repr_is_short():
+    rng = np.random.default_rng(11)
+    _, frames = _moving_rod_frames(rng)
+    bg = estimate_background(frames[:25], pairs=[(frames[i], frames[i + 1]) for i in range(4)])
+    text = repr(bg)                # the image and noise map were printed in full
+    assert len(text) < 300 and "array" not in text
+    assert text.startswith(f"Background(shape={bg.shape}, noise_sigma=")

@@ -31,3 +31,147 @@ def test_version(vidtrack_cli):
 
     out = vidtrack_cli("--version")
     assert out.returncode == 0 and vidtrack.__version__ in out.stdout
+
+
+# ---------------------------------------------------------------- -v / -q and logging
+
+WORKED = ("--n-rpm", "450", "--blade-angle-deg", "-10", "--speed-kmh", "6")
+OUTSIDE = ("--n-rpm", "900", "--blade-angle-deg", "0", "--speed-kmh", "7.2")
+NO_COVARIANCE = "vidtrack predict: the regression carries no coefficient covariance"
+
+
+def test_default_stderr_is_unchanged(vidtrack_cli):
+    res = vidtrack_cli("predict", *WORKED)
+    assert res.returncode == 0 and res.stderr == ""
+    res = vidtrack_cli("predict", *OUTSIDE)
+    assert res.returncode == 0
+    assert res.stderr.splitlines() == [
+        "vidtrack predict: warning: n_rpm = 900 lies outside the design range [350, 750] "
+        "(coded +3.5): the prediction is an extrapolation of the regression"]
+
+
+@pytest.mark.parametrize("where", ["before", "after"])
+def test_verbose_shows_info_records_before_or_after_the_command(vidtrack_cli, where):
+    args = ("-v", "predict", *WORKED) if where == "before" else ("predict", *WORKED, "-v")
+    res = vidtrack_cli(*args)
+    assert res.returncode == 0, res.stderr
+    assert NO_COVARIANCE in res.stderr
+    assert all(line.startswith("vidtrack predict: ") for line in res.stderr.splitlines())
+    assert "k4 = 21.84" in res.stdout                 # the result is printed as before
+
+
+@pytest.mark.parametrize("where", ["before", "after"])
+def test_quiet_before_or_after_the_command_leaves_only_errors(vidtrack_cli, where):
+    args = ("-q", "predict", *OUTSIDE) if where == "before" else ("predict", *OUTSIDE, "-q")
+    res = vidtrack_cli(*args)
+    assert res.returncode == 0 and res.stderr == ""
+    bad = vidtrack_cli("-q", "predict", "--n-rpm", "60", "--blade-angle-deg", "0",
+                       "--speed-kmh", "7.2")
+    assert bad.returncode == 2 and bad.stderr.startswith("vidtrack predict: error: ")
+
+
+def test_double_verbose_shows_debug_records_with_their_logger(vidtrack_cli):
+    from tests.test_rsm import CHEN_ARGS
+
+    res = vidtrack_cli("-v", "anova", *CHEN_ARGS, "--response", "k1", "-v")
+    assert res.returncode == 0, res.stderr
+    assert ("vidtrack anova: debug: [fits.rsm.fit] eliminated A:C (p = 0.8092 > alpha "
+            "0.05)") in res.stderr.splitlines()
+    assert "Regression" in res.stdout
+
+
+def test_verbose_is_accepted_after_a_commands_mode(vidtrack_cli):
+    res = vidtrack_cli("calibrate", "ruler", "--length-m", "0.5", "--from", "80,482",
+                       "--to", "205,482", "-v")
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.startswith("k = 0.004 m/px")
+
+
+@pytest.fixture
+def restore_logging():
+    import logging
+
+    from vidtrack.cli import LOGGERS
+
+    saved = {n: (logging.getLogger(n).level, list(logging.getLogger(n).handlers))
+             for n in LOGGERS}
+    yield
+    for n, (level, handlers) in saved.items():
+        logger = logging.getLogger(n)
+        logger.setLevel(level)
+        logger.handlers[:] = handlers
+
+
+def test_records_are_under_the_vidtrack_logger(caplog, capsys, restore_logging):
+    from vidtrack.cli import main
+
+    with caplog.at_level("INFO"):
+        assert main(["predict", *OUTSIDE, "-v"]) == 0
+    names = {r.name for r in caplog.records}
+    assert "vidtrack.predict.forward" in names and "vidtrack.cli.predict" in names
+    warning = next(r for r in caplog.records if r.levelname == "WARNING")
+    assert warning.name == "vidtrack.cli.predict" and "n_rpm = 900" in warning.getMessage()
+    err = capsys.readouterr().err.splitlines()
+    assert err[-1].startswith("vidtrack predict: warning: n_rpm = 900")
+    assert err[0].startswith("vidtrack predict: the regression carries")
+    # a second call replaces the handler: no line twice
+    assert main(["predict", *OUTSIDE]) == 0
+    assert len(capsys.readouterr().err.splitlines()) == 1
+
+
+def test_the_library_logs_nothing_without_configuration(capsys):
+    import logging
+    import subprocess
+    import sys
+
+    code = ("import logging, warnings\n"
+            "warnings.simplefilter('ignore')\n"
+            "from vidtrack.predict import predict\n"
+            "predict(900, 0, 7.2)\n"
+            "logging.getLogger('vidtrack.predict.forward').warning('a warning')\n"
+            "import vidtrack, fits, calibration\n"
+            "print([type(h).__name__ for n in ('vidtrack', 'fits', 'calibration')\n"
+            "       for h in logging.getLogger(n).handlers])\n")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert res.stderr == ""                 # NullHandler: no "last resort" output
+    assert res.stdout.strip() == "['NullHandler', 'NullHandler', 'NullHandler']"
+    assert logging.getLogger("vidtrack").handlers
+
+
+# ---------------------------------------------------------------- progress bars
+
+def test_no_bar_and_no_tqdm_when_stderr_is_not_a_terminal():
+    import subprocess
+    import sys
+
+    code = ("import sys\n"
+            "from vidtrack._progress import progress\n"
+            "items = [1, 2, 3]\n"
+            "assert progress(items, desc='x') is items\n"
+            "bar = progress(total=3)\n"
+            "bar.update(); bar.close()\n"
+            "print('tqdm' in sys.modules)\n")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == "False" and res.stderr == ""
+
+
+def test_a_notebook_gets_a_bar_even_without_a_terminal(monkeypatch):
+    import sys
+    import types
+
+    from vidtrack import _progress
+
+    monkeypatch.setitem(sys.modules, "ipykernel", types.ModuleType("ipykernel"))
+    assert _progress.in_notebook() and _progress.bars_enabled()
+    items = [1, 2, 3]
+    bar = _progress.progress(items, desc="frames")
+    from tqdm.std import tqdm as std_tqdm
+    assert isinstance(bar, std_tqdm) and list(bar) == items
+    bar.close()
+    # --quiet wins everywhere
+    assert _progress.progress(items, quiet=True) is items
+    assert not _progress.bars_enabled(quiet=True)

@@ -158,3 +158,86 @@ def test_intervals_cover_the_truth_under_errors_that_persist_over_frames():
         assert fit.axes["y"].error_model.correlated_fraction > 0.5
     for name, h in hits.items():
         assert h >= 21, (name, h)          # 95 % nominal; 21 of 25 or more
+
+
+# ---------------------------------------------------------------- in a notebook
+
+def test_repr_is_one_short_line_with_the_key_numbers():
+    fit = fit_throw(noisy_track(3), CP, v1=V1)
+    text = repr(fit)                # was 4,096 characters with every axis's arrays
+    assert len(text) < 300 and "\n" not in text and "array" not in text, text
+    k1 = fit.coefficients["k1"]
+    assert text.startswith("ThrowFit(model='quadratic', k1=")
+    assert f"k1={k1.value:#.4g}±{k1.stderr:.2g}" in text and "480/480/480" in text
+    for axis in fit.axes.values():
+        assert len(repr(axis)) < 300 and "array" not in repr(axis)
+
+
+def test_summary_has_the_coefficients_their_intervals_and_why_not():
+    data = noisy_track(1)
+    data["z_m"] = np.nan
+    fit = fit_throw(data, CP, v1=V1)
+    text = fit.summary()
+    assert "quadratic drag" in text and "Cp = 0.115 s/m" in text and "v1 = 2 m/s" in text
+    assert "Points: x 480, y 480, z 0" in text
+    for k in ("k1", "k2", "k3"):
+        c = fit.coefficients[k]
+        row = next(line for line in text.splitlines() if line.startswith(k + " "))
+        assert f"{c.value:.5g}" in row and f"{c.stderr:.3g}" in row
+        assert f"{c.ci95[0]:.5g} .. {c.ci95[1]:.5g}" in row
+    k4 = next(line for line in text.splitlines() if line.startswith("k4 "))
+    assert "not determined" in k4 and "no top view" in k4
+    for a in "xy":
+        assert f"{1000 * fit.residual_rms_m[a]:.3g}" in text
+    assert "(not fitted)" in text and "k4=n.d." in repr(fit)
+    html = fit._repr_html_()
+    assert html.count("<table>") == 2 and "no top view" in html and "<b>Throw fit" in html
+
+
+def test_tables_hold_the_fit_in_full_precision():
+    data = noisy_track(1)
+    data["z_m"] = np.nan
+    fit = fit_throw(data, CP, v1=V1)
+    table = fit.coef_table
+    assert list(table.index) == ["k1", "k2", "k3", "k4"]
+    assert list(table.columns) == ["value", "stderr", "ci95_low", "ci95_high", "determined",
+                                   "axis", "reason"]
+    for k in ("k1", "k2", "k3"):
+        c = fit.coefficients[k]
+        assert table.loc[k, "value"] == c.value == fit.params[k]
+        assert table.loc[k, "stderr"] == c.stderr == fit.bse[k]
+        assert (table.loc[k, "ci95_low"], table.loc[k, "ci95_high"]) == c.ci95
+        assert tuple(fit.conf_int().loc[k]) == c.ci95
+    assert np.isnan(fit.params["k4"]) and not table.loc["k4", "determined"]
+    assert table.loc["k4", "reason"] == fit.coefficients["k4"].reason
+    # another level from the t quantile: the stored 95 % interval is value ± t se
+    c = fit.coefficients["k1"]
+    half95 = c.ci95[1] - c.value
+    half99 = fit.conf_int(0.01).loc["k1", "upper"] - c.value
+    dof = fit.axes["y"].dof
+    from scipy import stats
+    assert half99 / half95 == pytest.approx(stats.t.ppf(0.995, dof) / stats.t.ppf(0.975, dof))
+    axes = fit.axes_table
+    assert axes.loc["x", "residual_rms_m"] == fit.residual_rms_m["x"]
+    assert axes.loc["y", "points"] == 480 and np.isnan(axes.loc["z", "residual_rms_m"])
+
+
+def test_conf_int_of_a_bootstrap_keeps_to_its_95_percent():
+    fit = fit_throw(noisy_track(5, t_end=0.3), CP, v1=V1, bootstrap=20,
+                    rng=np.random.default_rng(0))
+    assert tuple(fit.conf_int().loc["k3"]) == fit.coefficients["k3"].ci95
+    assert "bootstrap" in fit.summary()
+    with pytest.raises(InputError, match="bootstrap"):
+        fit.conf_int(0.1)
+
+
+def test_what_is_not_determined_is_logged(caplog):
+    data = noisy_track(1)
+    data["z_m"] = np.nan
+    with caplog.at_level("DEBUG", logger="fits"):
+        fit_throw(data, CP, v1=V1)
+    records = [r for r in caplog.records if r.name == "fits.lsq"]
+    assert any(r.levelname == "INFO" and "k4 not determined: no top view" in r.getMessage()
+               for r in records)
+    assert any(r.levelname == "DEBUG" and r.getMessage().startswith("y: 480 points")
+               for r in records)

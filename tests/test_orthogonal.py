@@ -199,3 +199,60 @@ def test_json_rows_are_named_as_the_columns(fits):
     assert d["range_analysis"]["tau0_deg"]["level_means"]["40"] == 0.0
     assert d["order_of_influence"][0] == "tau0_deg"
     assert "percent_contribution" in d
+
+
+# ---------------------------------------------------------------- in a notebook
+
+HOU_ARGS = [str(DATA / "hou2019_table3_l27.csv"), "--design", "orthogonal", "--categorical",
+            ",".join(FACTORS), "--interaction", "winding=tau0_deg:vm_kmh"]
+
+
+def test_summary_is_what_vidtrack_anova_prints(fits, vidtrack_cli):
+    res = vidtrack_cli("anova", *HOU_ARGS, "--response", "winding")
+    assert res.returncode == 0, res.stderr
+    assert res.stdout == fits["winding"].summary() + "\n"
+    # Hou 2019 Table 4, winding: tau0 F 5.60 (p 0.0163), the model F 3.73 (p 0.0108)
+    lines = fits["winding"].summary().splitlines()
+    tau0 = next(line for line in lines if line.strip().startswith("tau0_deg "))
+    model = next(line for line in lines if line.startswith("Model"))
+    assert tau0.split()[4:6] == ["5.60", "0.0163"]
+    assert model.split()[4:6] == ["3.73", "0.0108"]
+
+
+def test_anova_table_is_the_fits_anova_rows(fits):
+    fit = fits["winding"]
+    table = fit.anova_table
+    assert list(table.index) == FACTORS + ["tau0_deg:vm_kmh", "Model", "Error", "Total"]
+    assert list(table.columns) == ["ss", "df", "ms", "f", "p", "ss_pct"]
+    for key, row in fit.anova.items():
+        label = key.capitalize() if key in ("model", "error", "total") else key
+        for q in ("ss", "df", "ms", "f", "p"):
+            want = getattr(row, q)
+            got = table.loc[label, q]
+            assert (np.isnan(got) if want is None else got == want), (key, q)
+    assert table.loc["tau0_deg", "ss_pct"] == fit.percent_contribution["tau0_deg"]
+    assert table.loc["Error", "ss_pct"] == fit.percent_contribution["error"]
+    assert np.isnan(table.loc["Model", "ss_pct"])
+
+
+def test_range_and_level_means_tables(fits, table3):
+    fit = fits["vibration_m_s2"]
+    ranked = fit.range_table
+    assert list(ranked.index) == list(fit.order_by_range)
+    assert list(ranked["rank"]) == [1, 2, 3, 4]
+    means = fit.level_means
+    y = table3["vibration_m_s2"].astype(float)
+    for f in FACTORS:
+        expected = y.groupby(table3[f].astype(str)).mean()
+        for level, row in means.loc[f].iterrows():
+            assert row["mean"] == pytest.approx(expected[level])
+            assert row["runs"] == 9
+        assert ranked.loc[f, "range"] == pytest.approx(expected.max() - expected.min())
+
+
+def test_repr_is_short_and_html_has_the_tables(fits):
+    fit = fits["winding"]
+    text = repr(fit)                # was 5,625 characters (every array of the fit)
+    assert text == "OrthogonalFit(response='winding', factors=4, interactions=1, r2=0.7619, n=27)"
+    html = fit._repr_html_()
+    assert html.count("<table>") == 2 and "tau0_deg:vm_kmh" in html and "5.60" in html

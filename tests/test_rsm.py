@@ -420,3 +420,94 @@ def test_compare_reads_coded_coefficient_tables(table2, fits, tmp_path):
     status = {r.source: r.status for r in comp.rows}
     assert status == {"Intercept": "match", "A": "last digit", "A:B": "match",
                       "B": "differs"}
+
+
+# ---------------------------------------------------------------- in a notebook
+
+CHEN_ARGS = [str(DATA / "chen2018_table2_ccd.csv"), "--factor", "A=n_rpm:550:100",
+             "--factor", "B=blade_angle_deg:0:5", "--factor", "C=speed_kmh:7.2:1.8"]
+
+
+def test_summary_is_what_vidtrack_anova_prints(fits, vidtrack_cli):
+    res = vidtrack_cli("anova", *CHEN_ARGS, "--response", "k1")
+    assert res.returncode == 0, res.stderr
+    assert res.stdout == fits["k1"].summary() + "\n"
+    # Table 3: F 22.04 of the model and 0.59 (p 0.7861) of the lack of fit
+    lines = fits["k1"].summary().splitlines()
+    reg = next(line for line in lines if line.startswith("Regression"))
+    lof = next(line for line in lines if line.strip().startswith("Lack of fit"))
+    assert reg.split()[-2:] == ["22.04", "<0.0001"]
+    assert lof.split()[-2:] == ["0.59", "0.7861"]
+
+
+def test_anova_table_is_the_fits_anova_rows(fits):
+    for fit in fits.values():
+        table = fit.anova_table
+        assert list(table.columns) == ["ss", "df", "ms", "f", "p"]
+        assert list(table.index) == ["Regression", "Residual", "Lack of fit", "Pure error",
+                                     "Total"]
+        for key, label in (("regression", "Regression"), ("residual", "Residual"),
+                           ("lack_of_fit", "Lack of fit"), ("pure_error", "Pure error"),
+                           ("total", "Total")):
+            row = fit.anova[key]
+            for q in ("ss", "df", "ms", "f", "p"):
+                want = getattr(row, q)
+                got = table.loc[label, q]
+                assert (np.isnan(got) if want is None else got == want), (key, q)
+    assert fits["k1"].anova_table.loc["Regression", "f"] == pytest.approx(22.04, abs=0.005)
+
+
+def test_anova_table_leaves_out_what_the_design_cannot_give(table2):
+    once = table2.drop_duplicates(subset=["A", "B", "C"])
+    fit = fit_rsm(once, "k1", FACTORS)
+    assert list(fit.anova_table.index) == ["Regression", "Residual", "Total"]
+
+
+def test_coefficient_tables_coded_and_natural(fits):
+    fit = fits["k1"]
+    coded = fit.coef_table
+    assert list(coded.index) == ["Intercept", "A", "B", "C", "A:B", "A^2"]
+    assert list(coded.columns) == ["coefficient", "stderr", "ci95_low", "ci95_high", "ss",
+                                   "f", "p"]
+    for t in fit.term_tests:
+        assert coded.loc[t.term, "coefficient"] == t.coefficient == fit.params[t.term]
+        assert coded.loc[t.term, "p"] == t.p == fit.pvalues[t.term]
+        assert coded.loc[t.term, "ss"] == t.ss and coded.loc[t.term, "f"] == t.f
+    assert np.isnan(coded.loc["Intercept", "p"])
+    assert fit.bse.to_dict() == fit.stderr_coded
+    # the interval is b ± t(0.975, 26) se, as statsmodels gives it
+    from scipy import stats
+    t26 = stats.t.ppf(0.975, fit.anova["residual"].df)
+    assert coded.loc["A", "ci95_high"] == pytest.approx(0.635 + t26 * fit.stderr_coded["A"])
+    natural = fit.coef_table_natural
+    assert list(natural.index) == list(fit.coefficients_natural)
+    assert natural["coefficient"].to_dict() == fit.coefficients_natural
+    # eq. 20: 1.508e-5 n^2
+    assert natural.loc["n_rpm^2", "coefficient"] == pytest.approx(1.508e-5, abs=5e-9)
+    se = np.sqrt(np.diag(fit.covariance_natural))
+    assert natural["stderr"].to_numpy() == pytest.approx(se)
+    assert fit.conf_int(natural=True)["upper"].to_numpy() == pytest.approx(
+        natural["ci95_high"].to_numpy())
+
+
+def test_reprs_are_short_and_html_is_escaped(fits):
+    fit = fits["k1"]
+    text = repr(fit)                # was 7,820 characters (every array of the fit)
+    assert text == "RsmFit(response='k1', terms=5, r2=0.8091, adj_r2=0.7724, n=32)"
+    assert len(repr(fit.canonical)) < 300
+    published = read_published(DATA / "chen2018_table3_anova_published.csv")
+    comp = compare(list(fits.values()), published)
+    assert repr(comp) == ("Comparison(source='chen2018_table3_anova_published.csv', "
+                          "rows=64, flagged=2, notes=0)")
+    assert len(comp.to_frame()) == 64 and comp.summary() == comp._report().text()
+    html = fit._repr_html_()
+    assert "&lt;0.0001" in html and "<0.0001" not in html
+    assert html.count("<table>") == 2 and "22.04" in html and "0.7861" in html
+
+
+def test_elimination_is_logged(table2, caplog):
+    with caplog.at_level("DEBUG", logger="fits"):
+        fit_rsm(table2, "k1", FACTORS)
+    msgs = [r.getMessage() for r in caplog.records if r.name == "fits.rsm.fit"]
+    assert msgs[0] == "eliminated A:C (p = 0.8092 > alpha 0.05)"
+    assert len([m for m in msgs if m.startswith("eliminated")]) == 4

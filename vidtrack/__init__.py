@@ -16,9 +16,18 @@ data, each importing only those before it (docs/architecture.md):
   model from settings to a throw;
 - ``vidtrack.scene`` (scene.toml, experiment.toml) and ``vidtrack.errors`` serve them all;
   ``vidtrack.bench`` and ``vidtrack.cli`` sit on top.
+
+Messages are log records under the ``vidtrack`` logger and its children (one per
+module); the package adds only a ``NullHandler``, so nothing is printed unless logging is
+configured (``logging.basicConfig(level=logging.INFO)``, or ``vidtrack -v`` on the
+command line). Progress bars appear on a terminal and in Jupyter (``vidtrack._progress``).
 """
 
+import logging
+
 from vidtrack import _moved
+
+logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 _moved.install()
 

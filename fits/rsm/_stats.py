@@ -33,6 +33,26 @@ class AnovaRow:
         return out
 
 
+def anova_frame(anova, labels):
+    """An ANOVA dict (key -> AnovaRow or None) as a DataFrame with the printed row names.
+
+    Rows follow ``labels`` (key -> printed name) and leave out the None rows; columns
+    ``ss``, ``df``, ``ms``, ``f``, ``p``, NaN where a row has no such value.
+    """
+    import pandas as pd
+
+    rows = []
+    for key, label in labels.items():
+        r = anova.get(key)
+        if r is None:
+            continue
+        rows.append({"source": label, "ss": float(r.ss), "df": int(r.df),
+                     **{q: np.nan if getattr(r, q) is None else float(getattr(r, q))
+                        for q in ("ms", "f", "p")}})
+    out = pd.DataFrame(rows, columns=["source", "ss", "df", "ms", "f", "p"])
+    return out.set_index("source")
+
+
 def ratio(num, den):
     """``num / den``, or None when ``den`` is zero or not finite (a guarded division)."""
     if den is None or num is None or not math.isfinite(den) or den <= 0.0:
@@ -64,6 +84,10 @@ class LeastSquares:
     leverage: np.ndarray
     sse: float
     df_resid: int
+
+    def __repr__(self):
+        return (f"LeastSquares(parameters={len(self.params)}, n={len(self.fitted)}, "
+                f"sse={self.sse:.6g}, df_resid={self.df_resid})")
 
     @property
     def mse(self):
@@ -167,6 +191,16 @@ class CanonicalAnalysis:
     response_at_stationary: float | None = None
     nature: str | None = None
     within_design: bool | None = None
+
+    def __repr__(self):
+        eig = ", ".join(f"{v:.4g}" for v in self.eigenvalues)
+        if not self.available:
+            return (f"CanonicalAnalysis(available=False, eigenvalues=({eig}), "
+                    f"reason={self.reason.split(':')[0]!r})")
+        pt = ", ".join(f"{k}={v:.5g}" for k, v in self.stationary_point_natural.items())
+        return (f"CanonicalAnalysis({self.nature} at {pt}, "
+                f"response={self.response_at_stationary:.5g}, "
+                f"within_design={self.within_design}, eigenvalues=({eig}))")
 
     def to_dict(self):
         """JSON-ready dict."""

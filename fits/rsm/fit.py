@@ -23,6 +23,7 @@ Example
 ('A', 'B', 'C', 'A:B', 'A^2')
 """
 
+import logging
 import math
 import numbers
 import re
@@ -31,15 +32,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from fits.rsm._stats import (AnovaRow, CanonicalAnalysis, canonical_analysis, f_row,
-                             least_squares, pure_error, ratio, replicate_groups,
+from fits.rsm._stats import (AnovaRow, CanonicalAnalysis, anova_frame, canonical_analysis,
+                             f_row, least_squares, pure_error, ratio, replicate_groups,
                              studentized_external, term_pvalues)
 from fits.rsm._table import (numeric_column, read_table, require_columns, run_labels,
                              source_of)
 from fits.rsm._terms import (INTERCEPT, estimable_columns, model_matrix,
                              natural_expansion, parse_term, protected_by_hierarchy,
                              second_order_terms, sorted_terms, term_name)
-from fits.rsm._text import fmt_f, fmt_num, fmt_p, format_table
+from fits._text import Report, Table, fmt_f, fmt_num, fmt_p
 from fits.errors import InputError
 
 __all__ = ["AliasedTermWarning", "AnovaRow", "CanonicalAnalysis", "EliminationStep",
@@ -47,6 +48,12 @@ __all__ = ["AliasedTermWarning", "AnovaRow", "CanonicalAnalysis", "EliminationSt
            "read_table"]
 
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_.]*$")
+
+log = logging.getLogger(__name__)
+
+#: The ANOVA rows in printed order and their names in the printed table.
+ANOVA_ROWS = {"regression": "Regression", "residual": "Residual",
+              "lack_of_fit": "Lack of fit", "pure_error": "Pure error", "total": "Total"}
 
 
 class AliasedTermWarning(UserWarning):
@@ -249,10 +256,147 @@ class RsmFit:
     studentized: np.ndarray
     _exponents: tuple = field(repr=False, default=())
 
+    def __repr__(self):
+        return (f"RsmFit(response={self.response!r}, terms={len(self.terms)}, "
+                f"r2={self.r2:.4g}, adj_r2={self.adj_r2:.4g}, n={len(self.observed)})")
+
     @property
     def residual_ms(self):
         """The residual mean square (None with zero residual degrees of freedom)."""
         return self.anova["residual"].ms
+
+    # ------------------------------------------------------------ tables (pandas)
+
+    @property
+    def anova_table(self):
+        """The ANOVA as a DataFrame, rows named and ordered as :meth:`summary` prints them.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Index ``source``: ``Regression``, ``Residual``, ``Lack of fit``, ``Pure
+            error``, ``Total`` (a row the design cannot give is left out, as printed);
+            columns ``ss``, ``df``, ``ms``, ``f``, ``p`` in full precision (NaN where the
+            printed table is blank).
+        """
+        return anova_frame(self.anova, ANOVA_ROWS)
+
+    @property
+    def params(self):
+        """Coefficients in coded units as a Series (``Intercept``, ``A``, ``A:B``, ...)."""
+        import pandas as pd
+
+        s = pd.Series(self.coefficients_coded, name="coefficient", dtype=float)
+        s.index.name = "term"
+        return s
+
+    @property
+    def bse(self):
+        """Standard errors of the coded coefficients as a Series."""
+        import pandas as pd
+
+        s = pd.Series(self.stderr_coded, name="stderr", dtype=float)
+        s.index.name = "term"
+        return s
+
+    @property
+    def pvalues(self):
+        """Partial-F p-values of the coded terms as a Series (NaN for the intercept)."""
+        import pandas as pd
+
+        p = {t.term: (np.nan if t.p is None else t.p) for t in self.term_tests}
+        s = pd.Series({n: p.get(n, np.nan) for n in self.coefficients_coded}, name="p",
+                      dtype=float)
+        s.index.name = "term"
+        return s
+
+    def _t_quantile(self, alpha):
+        import scipy.special
+
+        if not isinstance(alpha, (int, float)) or not 0.0 < alpha < 1.0:
+            raise InputError(f"alpha must be between 0 and 1, got {alpha!r}")
+        df = self.anova["residual"].df
+        return float(scipy.special.stdtrit(df, 1.0 - alpha / 2.0)) if df > 0 else np.nan
+
+    def conf_int(self, alpha=0.05, *, natural=False):
+        """Confidence intervals of the coefficients: ``b ± t(1 - alpha/2, df_res) se``.
+
+        Parameters
+        ----------
+        alpha : float, default 0.05
+            1 - the confidence level.
+        natural : bool, keyword-only
+            The natural-unit coefficients (from the expanded covariance) instead of the
+            coded ones.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Indexed by term; columns ``lower`` and ``upper``.
+        """
+        import pandas as pd
+
+        t = self._t_quantile(alpha)
+        if natural:
+            names = list(self.coefficients_natural)
+            b = np.array([self.coefficients_natural[n] for n in names])
+            se = np.sqrt(np.maximum(np.diag(self.covariance_natural), 0.0))
+        else:
+            names = list(self.coefficients_coded)
+            b = np.array([self.coefficients_coded[n] for n in names])
+            se = np.array([self.stderr_coded[n] for n in names])
+        out = pd.DataFrame({"lower": b - t * se, "upper": b + t * se}, index=names)
+        out.index.name = "term"
+        return out
+
+    @property
+    def coef_table(self):
+        """The coded coefficients with their tests, as the summary's term table.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Index ``term`` (``Intercept``, then the model terms in coded names); columns
+            ``coefficient``, ``stderr``, ``ci95_low``, ``ci95_high``, ``ss``, ``f``, ``p``
+            (the partial F test of each term, 1 degree of freedom; NaN for the
+            intercept).
+        """
+        import pandas as pd
+
+        ci = self.conf_int()
+        tests = {t.term: t for t in self.term_tests}
+        rows = []
+        for name, b in self.coefficients_coded.items():
+            t = tests.get(name)
+            rows.append({"term": name, "coefficient": b, "stderr": self.stderr_coded[name],
+                         "ci95_low": ci.loc[name, "lower"], "ci95_high": ci.loc[name, "upper"],
+                         "ss": t.ss if t else np.nan,
+                         "f": np.nan if t is None or t.f is None else t.f,
+                         "p": np.nan if t is None or t.p is None else t.p})
+        return pd.DataFrame(rows).set_index("term")
+
+    @property
+    def coef_table_natural(self):
+        """The coefficients in natural units (exact expansion of the coded model).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Index ``term`` in natural names (``Intercept``, ``n_rpm``,
+            ``n_rpm:blade_angle_deg``, ``n_rpm^2``: each coefficient is in response
+            units per product of its factors' units); columns ``coefficient``,
+            ``stderr``, ``ci95_low``, ``ci95_high``.
+        """
+        import pandas as pd
+
+        ci = self.conf_int(natural=True)
+        se = np.sqrt(np.maximum(np.diag(self.covariance_natural), 0.0))
+        out = pd.DataFrame({"coefficient": list(self.coefficients_natural.values()),
+                            "stderr": se, "ci95_low": ci["lower"].to_numpy(),
+                            "ci95_high": ci["upper"].to_numpy()},
+                           index=list(self.coefficients_natural))
+        out.index.name = "term"
+        return out
 
     @property
     def natural_terms(self):
@@ -347,7 +491,25 @@ class RsmFit:
         return f"{self.response} = " + " ".join(parts)
 
     def summary(self):
-        """A readable text report: ANOVA, term tests, fit statistics, equations, notes."""
+        """A readable text report, like statsmodels' ``summary()``.
+
+        What ``vidtrack anova`` prints for a response: the selection (elimination steps,
+        aliased terms), the ANOVA (regression, residual, lack of fit, pure error, total)
+        with F and p, the coded coefficients with their standard errors and partial F
+        tests, R², adjusted and predicted R², adequate precision, the condition numbers,
+        the model in natural units, the canonical analysis and the notes.
+
+        Returns
+        -------
+        str
+        """
+        return self._report().text()
+
+    def _repr_html_(self):
+        """The :meth:`summary` as HTML tables (what a Jupyter notebook shows)."""
+        return self._report().html()
+
+    def _report(self):
         how = ("full model (no elimination)" if self.selection == "full" else
                f"backward elimination at alpha {self.alpha:g}, hierarchy "
                f"{'kept' if self.hierarchy else 'not kept'}")
@@ -359,22 +521,21 @@ class RsmFit:
         if self.aliased_terms:
             lines.append("Aliased (not estimable, left out): " + ", ".join(self.aliased_terms))
         rows = []
-        labels = {"regression": "Regression", "residual": "Residual",
-                  "lack_of_fit": "  Lack of fit", "pure_error": "  Pure error",
-                  "total": "Total"}
-        for key, label in labels.items():
+        for key, label in ANOVA_ROWS.items():
             r = self.anova.get(key)
             if r is None:
                 continue
-            rows.append([label, fmt_num(r.ss), r.df, fmt_num(r.ms), fmt_f(r.f), fmt_p(r.p)])
-        lines += ["", format_table(["Source", "SS", "df", "MS", "F", "p"], rows)]
+            indent = "  " if key in ("lack_of_fit", "pure_error") else ""
+            rows.append([indent + label, fmt_num(r.ss), r.df, fmt_num(r.ms), fmt_f(r.f),
+                         fmt_p(r.p)])
+        lines += ["", Table(["Source", "SS", "df", "MS", "F", "p"], rows)]
         trows = [[INTERCEPT, fmt_num(self.coefficients_coded[INTERCEPT]),
                   fmt_num(self.stderr_coded[INTERCEPT]), "", "", ""]]
         for t in self.term_tests:
             trows.append([t.term, fmt_num(t.coefficient), fmt_num(t.stderr), fmt_num(t.ss),
                           fmt_f(t.f), fmt_p(t.p)])
-        lines += ["", format_table(["Term (coded)", "Coefficient", "Std err", "SS", "F", "p"],
-                                   trows)]
+        lines += ["", Table(["Term (coded)", "Coefficient", "Std err", "SS", "F", "p"],
+                            trows)]
         lines += ["", f"R2 {fmt_num(self.r2, sig=4)}   adj R2 {fmt_num(self.adj_r2, sig=4)}   "
                       f"pred R2 {fmt_num(self.pred_r2, sig=4) or 'n/a'}   "
                       f"adeq precision {fmt_num(self.adeq_precision, sig=4) or 'n/a'}",
@@ -398,7 +559,7 @@ class RsmFit:
                                                           for v in c.eigenvalues))
                             if c.eigenvalues else ""))
         lines += [f"Note: {n}" for n in self.notes]
-        return "\n".join(lines)
+        return Report(lines)
 
 
 def _resolve_terms(terms, factors):
@@ -432,6 +593,7 @@ def _select(coded, y, terms, *, alpha, eliminate, hierarchy, letters):
         if not pv > alpha:
             break
         steps.append(EliminationStep(term=term_name(terms[i], letters), p=float(pv)))
+        log.debug("eliminated %s (p = %.4g > alpha %g)", steps[-1].term, pv, alpha)
         del terms[i]
     return terms, tuple(steps)
 
@@ -610,6 +772,9 @@ def fit_rsm(table, response, factors, *, terms=None, alpha=0.05, eliminate=True,
     extent = np.max(np.abs(coded), axis=0)
     canon = canonical_analysis(exps, fit.params, factors, extent)
 
+    log.debug("%s: model terms %s; R2 %.4g", response, ", ".join(term_names[1:]), r2)
+    for note in notes:
+        log.info("%s: %s", response, note)
     return RsmFit(
         response=response, factors=factors, alpha=float(alpha),
         selection="backward" if eliminate else "full", hierarchy=bool(hierarchy),

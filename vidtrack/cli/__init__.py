@@ -6,10 +6,17 @@ import heavy libraries inside ``run`` so that ``vidtrack --help`` stays fast.
 
 Exit codes: 0 success, 2 bad usage or bad input (one line on stderr, no traceback),
 1 internal error, 130 interrupted.
+
+Messages: the library logs under the ``vidtrack``, ``fits`` and ``calibration`` loggers;
+:func:`main` puts one handler on stderr for them (``vidtrack COMMAND: warning: ...``),
+at WARNING by default, INFO with ``-v``, DEBUG with ``-vv`` and ERROR with ``-q``
+(which also turns the progress bars off). ``-v`` and ``-q`` go before or after the
+command: ``vidtrack -v fit RUN`` and ``vidtrack fit RUN -v`` are the same.
 """
 
 import argparse
 import importlib
+import logging
 import os
 import sys
 
@@ -28,8 +35,100 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
 COMMANDS = ("init", "fit", "report", "anova", "predict", "synth", "frames", "calibrate", "bench")
 
 
+#: The packages whose loggers the command line shows on stderr.
+LOGGERS = ("vidtrack", "fits", "calibration")
+
+
 def _load(name):
     return importlib.import_module(f"vidtrack.cli.{name}")
+
+
+def add_common_options(parser, *, level=1):
+    """``-q/--quiet`` and ``-v/--verbose`` on a (sub)parser.
+
+    ``level`` 0 is the top-level parser (it holds the defaults: not quiet, verbosity 0);
+    deeper parsers (a command, a command's mode) set the options only when given
+    (``argparse.SUPPRESS``), so that ``vidtrack -q fit RUN`` is not undone by the
+    command's own default. Each level counts its ``-v`` apart (argparse copies a
+    subparser's values over its parent's); :func:`verbosity` adds them up.
+    """
+    top = level == 0
+    parser.add_argument("-q", "--quiet", action="store_true",
+                        default=False if top else argparse.SUPPRESS,
+                        help="no progress bars and no chatter on stderr (errors only)")
+    parser.add_argument("-v", "--verbose", action="count",
+                        dest="verbose" if top else f"_verbose_{level}",
+                        default=0 if top else argparse.SUPPRESS,
+                        help="say more on stderr: -v what is being done, -vv details")
+
+
+def verbosity(args):
+    """The number of ``-v`` given before and after the command."""
+    return sum(v for k, v in vars(args).items()
+               if k == "verbose" or k.startswith("_verbose_"))
+
+
+class _StderrHandler(logging.StreamHandler):
+    """A stream handler writing to the current ``sys.stderr`` (as tests capture it)."""
+
+    @property
+    def stream(self):
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value):
+        pass
+
+
+class CliFormatter(logging.Formatter):
+    """``vidtrack COMMAND: [LABEL: ]message``, the command line's stderr style.
+
+    The label is ``warning``, ``error``, ``debug``, none for INFO, or the record's own
+    ``label`` (``log.warning(msg, extra={"label": "note"})``); DEBUG records name their
+    logger.
+    """
+
+    LABELS = {logging.DEBUG: "debug", logging.WARNING: "warning", logging.ERROR: "error",
+              logging.CRITICAL: "error"}
+
+    def __init__(self, command):
+        super().__init__()
+        self.prefix = f"vidtrack {command}: " if command else "vidtrack: "
+
+    def format(self, record):
+        label = getattr(record, "label", None) or self.LABELS.get(record.levelno)
+        text = self.prefix + (f"{label}: " if label else "")
+        if record.levelno <= logging.DEBUG:
+            text += f"[{record.name}] "
+        text += record.getMessage()
+        if record.exc_info:
+            text += "\n" + self.formatException(record.exc_info)
+        return text
+
+
+def configure_logging(command=None, *, verbose=0, quiet=False):
+    """One stderr handler on the ``vidtrack``, ``fits`` and ``calibration`` loggers.
+
+    Level: ERROR with ``quiet``, else WARNING, INFO (``verbose=1``) or DEBUG (2 or
+    more). Calling it again replaces the handler (no duplicate lines).
+
+    Returns
+    -------
+    logging.Handler
+        The handler installed.
+    """
+    level = (logging.ERROR if quiet else logging.WARNING if verbose <= 0 else
+             logging.INFO if verbose == 1 else logging.DEBUG)
+    handler = _StderrHandler()
+    handler.setFormatter(CliFormatter(command))
+    handler._vidtrack_cli = True
+    for name in LOGGERS:
+        logger = logging.getLogger(name)
+        for old in [h for h in logger.handlers if getattr(h, "_vidtrack_cli", False)]:
+            logger.removeHandler(old)
+        logger.addHandler(handler)
+        logger.setLevel(level)
+    return handler
 
 
 def build_parser():
@@ -45,13 +144,13 @@ def build_parser():
     parser.add_argument("--version", action="version", version=f"vidtrack {__version__}")
     parser.add_argument("--debug", action="store_true",
                         help="show the full traceback of an internal error")
+    add_common_options(parser, level=0)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMANDS:
         module = _load(name)
         p = sub.add_parser(name, help=module.HELP, description=module.DESCRIPTION,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
-        p.add_argument("-q", "--quiet", action="store_true",
-                       help="no progress bars and no chatter on stderr")
+        add_common_options(p, level=1)
         module.add_arguments(p)
         p.set_defaults(_run=module.run)
     return parser
@@ -63,6 +162,10 @@ def main(argv=None):
 
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.verbose = verbosity(args)
+    for key in [k for k in vars(args) if k.startswith("_verbose_")]:
+        delattr(args, key)
+    configure_logging(args.command, verbose=args.verbose, quiet=args.quiet)
     try:
         return int(args._run(args) or 0)
     except INPUT_ERRORS as exc:

@@ -35,12 +35,17 @@ def add_arguments(parser):
 
 
 def run(args):
+    import logging
     import sys
 
     from vidtrack.bench.run import RUNNERS
 
+    log = logging.getLogger(__name__)
+
     def progress(name):
-        if not args.quiet and sys.stderr.isatty():
+        log.info("%s: %s done", args.which, name)
+        if (not args.quiet and sys.stderr.isatty()
+                and not log.isEnabledFor(logging.INFO)):
             print(f"  {args.which}: {name} done", file=sys.stderr)
 
     from vidtrack.errors import VidtrackError

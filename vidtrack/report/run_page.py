@@ -15,17 +15,10 @@ AXES = ("x", "y", "z")
 
 
 def _k_rows(record):
-    rows = []
-    for k in K_NAMES:
-        c = record["coefficients"][k]
-        if c["determined"]:
-            ci = c["ci95"]
-            rows.append((k, _html.num(c["value"], 5), _html.num(c["stderr"], 3),
-                         f"{_html.num(ci[0], 5)} .. {_html.num(ci[1], 5)}" if ci else "",
-                         c.get("reason", "")))
-        else:
-            rows.append((k, "not determined", "", "", c.get("reason", "")))
-    return rows
+    # the same rows as ThrowFit.summary() (one formatting of the k table)
+    from fits.lsq import coefficient_rows
+
+    return coefficient_rows({k: record["coefficients"][k] for k in K_NAMES})
 
 
 def render_markdown(record):
@@ -46,6 +39,12 @@ def render_markdown(record):
               for a in AXES]
     lines += ["", "Timings (s): " + ", ".join(f"{k} {v:.3g}"
                                               for k, v in record["timings_s"].items()), ""]
+    summary = record.get("world") or {}
+    if "rotation" in summary:
+        lines += [f"Calibrated cameras: median reprojection error "
+                  f"{summary['median_reprojection_px']:.3g} px; {summary['flagged']} of "
+                  f"{summary['rows']} frames flagged; throw frame X from "
+                  f"{summary['forward_from']}.", ""]
     for note in record.get("notes", []):
         lines.append(f"- {note}")
     return "\n".join(lines) + "\n"
@@ -108,6 +107,49 @@ def _fit_plot(world, curves):
     return _html.few_ticks(fig)
 
 
+def _calibrated_rows(summary, world):
+    """One row per view: frames triangulated, median reprojection error, clock."""
+    rows = []
+    for col in [c for c in world if str(c).startswith("reprojection_px_")]:
+        name = col.removeprefix("reprojection_px_")
+        err = np.asarray(world[col], dtype=float)
+        seen = np.isfinite(err)
+        med = float(np.median(err[seen])) if seen.any() else float("nan")
+        rows.append((name, int(seen.sum()), _html.num(med, 3),
+                     _html.num(1000 * summary["offsets_s"].get(name, 0.0), 4),
+                     summary["sync"].get(name, "")))
+    return rows
+
+
+def _calibrated_plot(world):
+    """Reprojection error per view over the frames, and the track seen from the side
+    (x-y) and from above (x-z), flagged frames marked."""
+    frame = np.asarray(world["frame"])
+    bad = np.asarray(world["flags"]) != 0
+    fig = _html.figure(12, 3.6)
+    ax_err, ax_side, ax_plan = fig.subplots(1, 3)
+    for col in [c for c in world if str(c).startswith("reprojection_px_")]:
+        ax_err.plot(frame, np.asarray(world[col]), ".", ms=3,
+                    label=str(col).removeprefix("reprojection_px_"))
+    ax_err.set_title("reprojection error per view")
+    ax_err.set_xlabel("frame")
+    ax_err.set_ylabel("px")
+    ax_err.legend(fontsize=8)
+    raw = np.asarray(world[["X_m", "Y_m", "Z_m"]], dtype=float) if "X_m" in world else None
+    for ax, (a, b) in ((ax_side, ("x_m", "y_m")), (ax_plan, ("x_m", "z_m"))):
+        u, v = np.asarray(world[a]), np.asarray(world[b])
+        ax.plot(u, v, ".", ms=3)
+        ax.set_xlabel(a.replace("_m", " (m)"))
+        ax.set_ylabel(b.replace("_m", " (m)"))
+        ax.set_aspect("equal", adjustable="datalim")
+    if raw is not None and bad.any():
+        ax_err.plot(frame[bad], np.zeros(int(bad.sum())), "x", color="red", ms=5)
+    ax_side.set_title("throw frame, side (x, y)")
+    ax_plan.set_title("from above (x, z)")
+    fig.subplots_adjust(left=0.06, right=0.99, top=0.9, bottom=0.15, wspace=0.35)
+    return _html.few_ticks(fig)
+
+
 def tracks_image(views):
     """The tracks-over-frames plot as an inline ``<img>`` (``views``: {view: rows})."""
     return _html.png(_track_plot(views), alt="tracks")
@@ -140,6 +182,22 @@ def render_html(record, *, fit=None, world=None, views=None, tracks_img=None, cu
     if curves is not None and world is not None:
         parts += ["<h2>Fitted curves over the measured points</h2>",
                   _html.png(_fit_plot(world, curves), alt="fit")]
+    summary = record.get("world") or {}
+    if "rotation" in summary and world is not None and "frame" in world:
+        parts.append("<h2>Calibrated cameras</h2>")
+        parts.append(f"<p>Median reprojection error {_html.num(summary['median_reprojection_px'], 3)}"
+                     f" px over the views; {summary['flagged']} of {summary['rows']} frames "
+                     f"flagged (an error beyond {_html.num(summary['flag_threshold_px'], 3)} px) "
+                     f"and not fitted. The throw's frame: Y up, X from "
+                     f"{_html.esc(summary['forward_from'])}.</p>")
+        parts.append(_html.table(("view", "frames", "median reprojection (px)",
+                                  "clock offset (ms)", "how"),
+                                 [tuple(_html.esc(c) for c in r)
+                                  for r in _calibrated_rows(summary, world)]))
+        parts.append(_html.table(("throw frame axis", "in the calibration's frame"),
+                                 [(a, _html.esc(", ".join(f"{v:.4f}" for v in row)))
+                                  for a, row in zip("XYZ", summary["rotation"])]))
+        parts.append(_html.png(_calibrated_plot(world), alt="calibrated cameras"))
     if tracks_img is None and views:
         tracks_img = tracks_image(views)
     if tracks_img:

@@ -68,6 +68,10 @@ class Background:
     frames: tuple = ()
     dtype: np.dtype = np.dtype(np.uint8)
 
+    def __repr__(self):
+        return (f"Background(shape={tuple(self.image.shape)}, noise_sigma={self.noise_sigma:.3g}, "
+                f"n_samples={self.n_samples}, dtype={np.dtype(self.dtype).name})")
+
     @property
     def shape(self):
         """``(rows, cols)`` of the background."""

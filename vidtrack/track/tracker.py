@@ -44,6 +44,7 @@ value   name             meaning
 ======  ===============  ===========================================================
 """
 
+import logging
 import math
 import statistics
 from collections import deque
@@ -58,6 +59,8 @@ from vidtrack.track._segment import Segmenter, measure, other_behind, read_level
 from vidtrack.track._select import Acquirer, Intruders, Predictor
 from vidtrack.track.background import Background, estimate_background, sample_indices
 from vidtrack.errors import TrackError
+
+log = logging.getLogger(__name__)
 
 if TYPE_CHECKING:
     import pandas
@@ -86,6 +89,12 @@ _WARMUP_BYTES = 96 * 1024 * 1024
 
 class Cancelled(Exception):
     """A tracking pass stopped by its ``cancel`` event."""
+
+
+def _finite_or_none(value):
+    """A float for JSON, None where nothing was measured (points digitized elsewhere)."""
+    value = float(value)
+    return value if np.isfinite(value) else None
 
 
 def describe_flags(value):
@@ -148,6 +157,13 @@ class Track:
     scatter_px: float
     notes: tuple = ()
 
+    def __repr__(self):
+        fps = "None" if self.fps is None else f"{self.fps:g}"
+        return (f"Track(view={self.view!r}, frames={len(self.data)}, "
+                f"usable={int(np.count_nonzero(self.usable))}, "
+                f"release_frame={self.release_frame}, fps={fps}, "
+                f"scatter_px={self.scatter_px:.3g})")
+
     @classmethod
     def from_parts(cls, parts):
         """The Track of :func:`track_parts`' result."""
@@ -175,8 +191,10 @@ class Track:
                 "release_frame": self.release_frame, "release_note": self.release_note,
                 "release_t_s": self.release_t_s,
                 "fps": self.fps, "frame_shape": list(self.frame_shape),
-                "noise_sigma": float(self.noise_sigma), "k_sigma": float(self.k_sigma),
-                "straw_level": float(self.straw_level), "scatter_px": float(self.scatter_px),
+                "noise_sigma": _finite_or_none(self.noise_sigma),
+                "k_sigma": _finite_or_none(self.k_sigma),
+                "straw_level": _finite_or_none(self.straw_level),
+                "scatter_px": _finite_or_none(self.scatter_px),
                 "flags": self.flag_counts(), "notes": list(self.notes)}
 
 
@@ -349,10 +367,16 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
     One pass over the frames; memory is the background, the warm-up buffer and a few
     numbers per frame, whatever the footage's length.
     """
-    return Track.from_parts(track_parts(
+    tr = Track.from_parts(track_parts(
         source, background=background, view=view, k_sigma=k_sigma, min_area_px=min_area_px,
         max_gap=max_gap, blade_region=blade_region, centre_line_px=centre_line_px,
         warmup_frames=warmup_frames, quiet=quiet, cancel=cancel))
+    log.info("%s: %d frames tracked, %d usable; release frame %s (%s)", tr.view or "view",
+             len(tr.data), int(np.count_nonzero(tr.usable)), tr.release_frame,
+             tr.release_note)
+    for note in tr.notes:
+        log.debug("%s: %s", tr.view or "view", note)
+    return tr
 
 
 def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
