@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from calibration.errors import InputError
-from calibration.scale import Scale, _point_array, ruler_scale
+from calibration.scale import Scale, _point_array, check_m_per_px, ruler_scale
 
 __all__ = [
     "CameraCalibration", "CalibrationFile", "calibrate_checkerboard",
@@ -455,7 +455,9 @@ def plane_scale(corners_px, pattern, square_m, *, camera=None, max_spread=0.01):
         raise InputError(f"the board's square spacing varies by {100 * spread:.1f} % "
                          f"(more than {100 * max_spread:.1f} %): it is not parallel to the "
                          "image plane, so it gives no single plane scale")
-    return Scale(m_per_px=float(square_m) * d.size / float(d.sum()), method="checkerboard")
+    m_per_px = float(square_m) * d.size / float(d.sum())
+    return Scale(m_per_px=check_m_per_px(m_per_px, "the plane's scale (m_per_px)"),
+                 method="checkerboard")
 
 
 def calibrate_checkerboard(images, pattern, square_m, *, fix_k3=False, min_images=3,
@@ -777,7 +779,10 @@ def parse_calibration(data, *, name="calibration file"):
             extra = sorted({"length_m", "from_px", "to_px", "span_px"} & set(s))
             if extra:
                 raise InputError(f"{w}{extra[0]} applies only to method = 'ruler'")
-            scale = Scale(m_per_px=m, method=method)
+            try:
+                scale = Scale(m_per_px=check_m_per_px(m), method=method)
+            except InputError as exc:
+                raise InputError(f"{w}{exc}") from None
     if "camera" in data:
         c = data["camera"]
         w = pre + "camera."

@@ -12,7 +12,12 @@ import numpy as np
 
 from calibration.errors import InputError
 
-__all__ = ["Scale", "ruler_scale", "given_scale", "pixel_point"]
+__all__ = ["Scale", "ruler_scale", "given_scale", "pixel_point", "M_PER_PX_RANGE",
+           "check_m_per_px"]
+
+#: Scales accepted, metres per pixel: a nanometre to a kilometre per pixel. Anything
+#: outside is a typo or an overflow (a ruler of 1e300 m over 1e-10 px gives inf).
+M_PER_PX_RANGE = (1e-9, 1e3)
 
 
 @dataclass(frozen=True)
@@ -69,6 +74,18 @@ def _finite_number(value, name):
     if not math.isfinite(value):
         raise InputError(f"{name} must be finite, got {value!r}")
     return value
+
+
+def check_m_per_px(value, name="m_per_px"):
+    """``value`` as a float if it is a scale in :data:`M_PER_PX_RANGE`, else InputError."""
+    number = _finite_number(value, name)
+    if number <= 0:
+        raise InputError(f"{name} must be > 0, got {value!r}")
+    low, high = M_PER_PX_RANGE
+    if not low <= number <= high:
+        raise InputError(f"{name} must be between {low:g} and {high:g} m per pixel, "
+                         f"got {value!r}")
+    return number
 
 
 def _point_array(a, width, name):
@@ -143,7 +160,8 @@ def ruler_scale(length_m, from_px, to_px):
     ------
     InputError
         length_m not a finite number > 0; a point that is not two finite numbers; the
-        two points equal (a ruler of zero pixels).
+        two points equal (a ruler of zero pixels); a scale outside
+        :data:`M_PER_PX_RANGE`.
 
     Notes
     -----
@@ -165,7 +183,15 @@ def ruler_scale(length_m, from_px, to_px):
     if not span > 0:
         raise InputError(f"the ruler spans 0 pixels: its two ends are the same point "
                          f"({a[0]:g}, {a[1]:g})")
-    return Scale(m_per_px=length / span, method="ruler", length_m=length,
+    if not math.isfinite(span):
+        raise InputError(f"the ruler's span from ({a[0]:g}, {a[1]:g}) to ({b[0]:g}, "
+                         f"{b[1]:g}) overflows; expected pixel positions of an image")
+    m_per_px = length / span
+    low, high = M_PER_PX_RANGE
+    if not low <= m_per_px <= high:
+        raise InputError(f"the ruler gives {length:g} m / {span:g} px = {m_per_px:g} m per "
+                         f"pixel; expected a scale between {low:g} and {high:g} m per pixel")
+    return Scale(m_per_px=m_per_px, method="ruler", length_m=length,
                  from_px=a, to_px=b, span_px=span)
 
 
@@ -185,9 +211,6 @@ def given_scale(m_per_px):
     Raises
     ------
     InputError
-        Not a finite number > 0.
+        Not a finite number > 0, or outside :data:`M_PER_PX_RANGE`.
     """
-    value = _finite_number(m_per_px, "m_per_px")
-    if value <= 0:
-        raise InputError(f"m_per_px must be > 0, got {m_per_px!r}")
-    return Scale(m_per_px=value, method="given")
+    return Scale(m_per_px=check_m_per_px(m_per_px), method="given")

@@ -288,3 +288,19 @@ def test_device_in_predict_ends_the_throw_at_the_inlet():
     assert p.to_dict()["device"]["h1_m"] == pytest.approx(p.device.h1_m)
     with pytest.raises(InputError, match="low_m"):
         InletGeometry(low_m=0.1, high_m=0.0)
+
+
+def test_reprs_are_short():
+    """The results print as one line each (the trajectory's arrays were 7,673 characters,
+    the whole prediction 10,943)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ExtrapolationWarning)
+        pred = predict(450, -10, 6, device=InletGeometry())
+    regression = load_regression()
+    objects = (pred, pred.coefficients, pred.trajectory, pred.release, regression,
+               regression.models["k1"], pred.coefficients.coefficients["k1"])
+    for obj in objects:
+        text = repr(obj)
+        assert len(text) < 300 and "\n" not in text and "array" not in text, text
+    assert repr(pred.coefficients).endswith("k1=1.585, k2=2.132, k3=4.000, k4=21.84)")
+    assert repr(pred).startswith("Prediction(n_rpm=450, blade_angle_deg=-10, speed_kmh=6: ")

@@ -183,6 +183,14 @@ def _set(path, value):
 
 DELETE = object()
 
+
+def _ruler_to_given(value):
+    """The front view's scale given as m_per_px = value instead of its ruler."""
+    def mutate(d):
+        del d["views"]["front"]["ruler"]
+        d["views"]["front"]["m_per_px"] = value
+    return mutate
+
 BAD = [
     # (mutation, key path in the message, the rest of the message)
     (_set("views.front.fps", 0), "views.front.fps", "must be > 0, got 0"),
@@ -190,6 +198,10 @@ BAD = [
     (_set("views.front.fps", "1200"), "views.front.fps", "must be a number, got a string '1200'"),
     (_set("views.front.fps", True), "views.front.fps", "must be a number, got a boolean"),
     (_set("views.front.fps", math.nan), "views.front.fps", "must be a finite number, got nan"),
+    (_set("views.front.fps", 1e-300), "views.front.fps",
+     "must be between 0.1 and 1e+07 frames/s, got 1e-300"),
+    (_set("views.front.fps", 1e300), "views.front.fps",
+     "must be between 0.1 and 1e+07 frames/s, got 1e+300"),
     (_set("views.front.fps", DELETE), "views.front.fps", "is required"),
     (_set("views.front.source", DELETE), "views.front.source", "is required"),
     (_set("views.front.source", 3), "views.front.source", "must be a string, got an integer 3"),
@@ -219,6 +231,11 @@ BAD = [
     (_set("views.front.m_per_px", 0.004), "views.front", "gives two scales (ruler and m_per_px)"),
     (_set("views.front.ruler", DELETE), "views.front", "needs a scale"),
     (_set("views.front.m_per_px", 0), "views.front.m_per_px", "must be > 0, got 0"),
+    (_ruler_to_given(1e-300), "views.front.m_per_px",
+     "must be between 1e-09 and 1000 m per pixel, got 1e-300"),
+    (_ruler_to_given(math.inf), "views.front.m_per_px", "must be a finite number, got inf"),
+    (_set("views.front.ruler.length_m", 1e300), "views.front.ruler",
+     "expected a scale between 1e-09 and 1000 m per pixel"),
     (_set("views.front.frames", [10, 5]), "views.front.frames",
      "must be a non-empty range [first, end) with 0 <= first < end, got [10, 5]"),
     (_set("views.front.frames", [5, 5]), "views.front.frames", "must be a non-empty range"),
@@ -447,6 +464,9 @@ def test_scene_to_toml_is_what_load_reads(tmp_path):
 
 finite = st.floats(-1e4, 1e4, allow_nan=False)
 positive = st.floats(1e-6, 1e6, allow_nan=False)
+capture_rate = st.floats(0.1, 1e7)              # FPS_RANGE
+scale = st.floats(1e-9, 1e3)                    # M_PER_PX_RANGE
+ruler_length = st.floats(1e-5, 1e3)             # over 1..1415 px: a scale in range
 pair = st.tuples(finite, finite).map(list)
 
 
@@ -459,13 +479,13 @@ def scenes(draw):
         order = draw(st.permutations(world))
         axes = [draw(st.sampled_from("+-")) + order[0], draw(st.sampled_from("+-")) + order[1]]
         view = {"source": draw(st.sampled_from(["v.avi", "frames/", "x.cine"])),
-                "fps": draw(positive), "axes": axes, "origin_px": draw(pair)}
+                "fps": draw(capture_rate), "axes": axes, "origin_px": draw(pair)}
         if draw(st.booleans()):
             a = draw(pair)
             b = [a[0] + draw(st.floats(1, 1e3)), a[1] + draw(st.floats(-1e3, 1e3))]
-            view["ruler"] = {"length_m": draw(positive), "from_px": a, "to_px": b}
+            view["ruler"] = {"length_m": draw(ruler_length), "from_px": a, "to_px": b}
         else:
-            view["m_per_px"] = draw(positive)
+            view["m_per_px"] = draw(scale)
         if draw(st.booleans()):
             first = draw(st.integers(0, 10**6))
             view["frames"] = [first, first + draw(st.integers(1, 10**6))]

@@ -8,14 +8,74 @@ import pandas as pd
 
 from fits.errors import InputError
 
+#: Largest magnitude of a number in a table: squares and their sums over the runs must
+#: stay finite (1e150 squared is 1e300, near the largest float).
+MAX_ABS_VALUE = 1e150
 
-def read_table(path):
+#: Columns that identify a run: each value may occur once.
+ID_COLUMNS = ("run", "Run", "std", "Std")
+
+
+def _raw_header(path):
+    """The header row's names as written (pandas renames a repeated ``k1`` to ``k1.1``)."""
+    import csv
+
+    with open(path, encoding="utf-8-sig", newline="") as f:
+        for row in csv.reader(f, skipinitialspace=True):
+            if any(c.strip() for c in row):
+                return [c.strip() for c in row]
+    return []
+
+
+def _cell_key(value):
+    """A cell for comparing rows: numbers by value (``1`` equals ``1.0``), else the text."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return ""
+    text = str(value).strip()
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def _check_duplicates(df, path, allow_duplicate_rows):
+    """Refuse a run id given twice and (unless allowed) a row repeated in every column."""
+    first = {}
+    for i, row in enumerate(df.itertuples(index=False, name=None)):
+        key = tuple(_cell_key(v) for v in row)
+        j = first.setdefault(key, i)
+        if j != i and not allow_duplicate_rows:
+            raise InputError(
+                f"{path}: row {i + 1} (line {i + 2}) repeats row {j + 1} (line {j + 2}) in "
+                "every column; expected each run once (two real runs with equal results: "
+                "allow_duplicate_rows, on the command line --allow-duplicate-rows)")
+    for column in ID_COLUMNS:
+        if column not in df.columns:
+            continue
+        seen = {}
+        for i, v in enumerate(df[column]):
+            key = _cell_key(v)
+            if key == "":
+                continue
+            j = seen.setdefault(key, i)
+            if j != i and tuple(map(_cell_key, df.iloc[i])) != tuple(map(_cell_key,
+                                                                        df.iloc[j])):
+                raise InputError(
+                    f"{path}: rows {j + 1} and {i + 1} (lines {j + 2} and {i + 2}) have the "
+                    f"same {column} {str(v).strip()!r}; expected each {column} once")
+
+
+def read_table(path, *, allow_duplicate_rows=False):
     """Read a CSV table of runs, every cell kept as text; nothing is modified.
 
     Parameters
     ----------
     path : str or Path
         A comma-separated file with a header row.
+    allow_duplicate_rows : bool, keyword-only
+        Accept a row equal to another in every column (two real runs with equal
+        results); by default it is refused as a copy-paste slip, since it weighs that
+        run twice in the ANOVA.
 
     Returns
     -------
@@ -26,7 +86,9 @@ def read_table(path):
     Raises
     ------
     InputError
-        The file is missing, unreadable, empty, or has duplicate column names.
+        The file is missing, unreadable, empty, or has duplicate column names; a run id
+        (column ``run``, ``Run``, ``std`` or ``Std``) given to two different rows; a row
+        repeated in every column (unless ``allow_duplicate_rows``).
     """
     path = Path(path)
     if not path.is_file():
@@ -40,6 +102,12 @@ def read_table(path):
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InputError(f"{path}: not a readable CSV table ({first})") from None
     names = [str(c).strip() for c in df.columns]
+    raw = _raw_header(path)                  # pandas has renamed a repeated k1 to k1.1
+    for j, name in enumerate(raw):
+        if name and name in raw[:j]:
+            raise InputError(f"{path}: the header row names column {name!r} twice "
+                             f"(columns {raw.index(name) + 1} and {j + 1}); expected each "
+                             "column name once")
     dupes = sorted({n for n in names if names.count(n) > 1})
     if dupes:
         raise InputError(f"{path}: duplicate column name(s) {', '.join(dupes)}")
@@ -48,6 +116,7 @@ def read_table(path):
     df.columns = names
     if len(df) == 0:
         raise InputError(f"{path}: the table has a header but no rows")
+    _check_duplicates(df, path, allow_duplicate_rows)
     df.attrs["source"] = str(path)
     return df
 
@@ -87,6 +156,10 @@ def numeric_column(table, column):
                 raise InputError(f"{where}: {str(v)!r} is not a number") from None
         if not math.isfinite(x):
             raise InputError(f"{where}: {str(v)!r} is not a finite number")
+        if abs(x) > MAX_ABS_VALUE:
+            raise InputError(f"{where}: {str(v).strip()!r} is too large; expected a number "
+                             f"within +-{MAX_ABS_VALUE:g} (its square must not overflow "
+                             "the sums of squares)")
         out[i] = x
     return out
 

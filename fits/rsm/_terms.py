@@ -14,6 +14,9 @@ import numpy as np
 from fits.errors import InputError
 
 INTERCEPT = "Intercept"
+#: Largest magnitude of a factor value in a model matrix: its square terms and their
+#: products stay far from overflow (a CCD's coded values lie within a few units of 0).
+MAX_ABS_FACTOR = 1e12
 
 
 def term_name(exponents, labels):
@@ -96,6 +99,13 @@ def model_matrix(coded, terms):
     terms : sequence of exponent tuples (without the intercept)
     """
     coded = np.asarray(coded, dtype=float)
+    big = np.abs(coded) > MAX_ABS_FACTOR
+    if np.any(big):
+        i, j = (int(v) for v in np.argwhere(big)[0])
+        raise InputError(f"row {i + 1}, factor {chr(ord('A') + j)}: the value "
+                         f"{coded[i, j]:g} is beyond +-{MAX_ABS_FACTOR:g}; expected coded "
+                         "values within a few units of 0 (check the factor column and its "
+                         "centre and step)")
     cols = [np.ones(coded.shape[0])]
     for t in terms:
         col = np.ones(coded.shape[0])
@@ -125,7 +135,22 @@ def natural_expansion(terms, centres, steps):
         The natural monomials with a structurally non-zero coefficient, sorted.
     T : (len(natural_terms), len(terms)) ndarray
         ``beta_natural = T @ beta_coded``.
+
+    Raises
+    ------
+    InputError
+        A centre beyond +-MAX_ABS_FACTOR or a step outside 1/MAX_ABS_FACTOR ..
+        MAX_ABS_FACTOR in magnitude (its powers would overflow or vanish).
     """
+    for j, (c, s) in enumerate(zip(centres, steps)):
+        letter = chr(ord("A") + j)
+        if not abs(c) <= MAX_ABS_FACTOR:
+            raise InputError(f"factor {letter}: centre {c:g} is beyond +-{MAX_ABS_FACTOR:g}; "
+                             "expected the natural value at coded 0")
+        if not 1 / MAX_ABS_FACTOR <= abs(s) <= MAX_ABS_FACTOR:
+            raise InputError(f"factor {letter}: step {s:g} is outside {1 / MAX_ABS_FACTOR:g} "
+                             f"to {MAX_ABS_FACTOR:g} in magnitude; expected the natural change "
+                             "per coded unit")
     columns = {}
     for j, t in enumerate(terms):
         ranges = [range(e + 1) for e in t]

@@ -81,7 +81,10 @@ def add_arguments(parser):
                         help="print a JSON list, one object per response, full precision")
     parser.add_argument("--report", metavar="FILE.html",
                         help="write a self-contained HTML report with tables and plots, "
-                             "e.g. --report anova.html")
+                             "e.g. --report anova.html (never one of the input files)")
+    parser.add_argument("--allow-duplicate-rows", action="store_true",
+                        help="accept a row equal to another in every column (two real runs "
+                             "with equal results); refused by default as a copy-paste slip")
 
 
 def _split(values):
@@ -147,14 +150,18 @@ def _fit_all(args, table, responses):
 def run(args):
     """Parse, analyse, compare, write the report, print."""
     import json
-    import sys
+    import logging
 
     from fits.compare import compare, read_published
     from fits.errors import InputError
     from fits.rsm import read_table
     from vidtrack.errors import VidtrackError
 
-    table = read_table(args.table)
+    if args.report:
+        from vidtrack._atomic import check_output
+        check_output(args.report, inputs=[args.table, *args.compare],
+                     label=f"--report {args.report}")
+    table = read_table(args.table, allow_duplicate_rows=args.allow_duplicate_rows)
     responses = _split(args.response)
     if not responses:
         raise InputError(f"give the response column(s) with --response (the table has: "
@@ -177,9 +184,9 @@ def run(args):
         except OSError as exc:
             raise VidtrackError(f"cannot write the report {args.report}: "
                                 f"{exc.strerror or exc}") from None
-    if not args.quiet:
-        for w in warnings_:
-            print(f"vidtrack anova: warning: {w}", file=sys.stderr)
+    log = logging.getLogger(__name__)
+    for w in warnings_:
+        log.warning("%s", w)
     if args.json:
         out = []
         for fit in fits:

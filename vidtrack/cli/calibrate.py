@@ -65,9 +65,9 @@ def _pattern(text):
 
 def add_arguments(parser):
     """Register the ``ruler`` and ``checkerboard`` modes."""
+    from vidtrack.cli import add_common_options
+
     modes = parser.add_subparsers(dest="mode", metavar="MODE", required=True)
-    quiet = {"action": "store_true", "default": argparse.SUPPRESS,
-             "help": "no progress bars and no chatter on stderr"}
 
     r = modes.add_parser(
         "ruler", help="scale k = W / N from a ruler of known length",
@@ -84,7 +84,7 @@ def add_arguments(parser):
     r.add_argument("-o", "--output", type=Path, metavar="FILE.toml",
                    help="write the calibration file here, e.g. -o calibration/front.toml "
                         "(default: only print k)")
-    r.add_argument("-q", "--quiet", **quiet)
+    add_common_options(r, level=2)
 
     c = modes.add_parser(
         "checkerboard", help="intrinsics and distortion from checkerboard images",
@@ -109,7 +109,7 @@ def add_arguments(parser):
                    help="hold the radial term k3 at 0 (few images or a mild lens)")
     c.add_argument("-o", "--output", required=True, type=Path, metavar="FILE.toml",
                    help="the calibration file to write, e.g. -o calibration/front.toml")
-    c.add_argument("-q", "--quiet", **quiet)
+    add_common_options(c, level=2)
 
 
 def _check_output(path, inputs):
@@ -119,9 +119,9 @@ def _check_output(path, inputs):
         raise InputError(f"-o {path}: expected a .toml file name")
     if path.is_dir():
         raise InputError(f"-o {path}: is a folder; expected a .toml file name")
-    for p in inputs:
-        if p is not None and p.exists() and path.exists() and path.resolve() == p.resolve():
-            raise InputError(f"-o {path}: is one of the inputs; inputs are never overwritten")
+    from vidtrack._atomic import check_output
+
+    check_output(path, inputs=inputs, label=f"-o {path}")   # not an input, writable
 
 
 def _run_ruler(args):

@@ -65,7 +65,7 @@ def _parse_range(text):
 
 
 def run(args):
-    import sys
+    import logging
 
     from vidtrack.errors import VidtrackError
     from vidtrack.footage import export_frames, open_source
@@ -79,9 +79,9 @@ def run(args):
         report = check_time_base(source, duplicates=False)
         result = export_frames(source, args.out, every=args.every, fmt=args.fmt,
                                quiet=args.quiet)
-    if not args.quiet:
-        for note in report.warnings:
-            print(f"vidtrack frames: note: {note}", file=sys.stderr)
+    log = logging.getLogger(__name__)
+    for note in report.warnings:
+        log.warning("%s", note, extra={"label": "note"})
     depth = (f"{result.dtype}, {result.bit_depth} significant bits")
     print(f"wrote {len(result.files)} frames ({result.format}, {depth}) and frames.csv to "
           f"{result.out}; times from {result.time_source}")

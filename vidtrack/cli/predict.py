@@ -22,6 +22,47 @@ examples:
       --regression anova.json --plot throw.png
 """
 
+#: The values a user may type (option dest -> (low, high, unit), ends included): far
+#: outside anything physical is a typo or an overflow (1e300), refused (exit 2) before
+#: any work; --help lists them.
+LIMITS = {
+    "n_rpm": (1.0, 1e5, "r/min"), "speed_kmh": (0.0, 100.0, "km/h"),
+    "blade_radius_m": (0.01, 10.0, "m"), "start_m": (-10.0, 10.0, "m"),
+    "friction": (0.0, 10.0, ""),
+    "phase_deg": (-360.0, 360.0, "deg"), "cp_s_per_m": (0.0, 10.0, "s/m"),
+    "straw_mass_kg": (1e-6, 100.0, "kg"), "straw_area_m2": (1e-6, 10.0, "m^2"),
+    "drag_coefficient": (0.0, 100.0, ""), "shaft_height_m": (0.001, 100.0, "m"),
+    "inlet_x_m": (-1000.0, 1000.0, "m"), "inlet_offset_m": (0.0, 100.0, "m"),
+    "inlet_low_m": (-100.0, 100.0, "m"), "inlet_high_m": (-100.0, 100.0, "m"),
+    "housing_bottom_m": (0.0, 100.0, "m"), "blade_clearance_m": (0.0, 100.0, "m"),
+    "ground_clearance_m": (0.0, 100.0, "m"), "points": (2, 1_000_000, "samples"),
+}
+
+
+def _num(value):
+    return str(value) if isinstance(value, int) else f"{value:g}"
+
+
+def _limits_text():
+    items = [f"--{k.replace('_', '-')} {_num(lo)}..{_num(hi)}{' ' + u if u else ''}"
+             for k, (lo, hi, u) in LIMITS.items()]
+    return "\nlimits (ends included; outside them exit 2):\n  " + "\n  ".join(
+        ", ".join(items[i:i + 3]) for i in range(0, len(items), 3)) + "\n"
+
+
+DESCRIPTION += _limits_text()
+
+
+def _check_limits(args):
+    """Every given option within :data:`LIMITS`, else InputError naming it (one line)."""
+    from fits.errors import InputError
+
+    for key, (lo, hi, unit) in LIMITS.items():
+        value = getattr(args, key, None)
+        if value is not None and not lo <= value <= hi:
+            raise InputError(f"--{key.replace('_', '-')} must be between {_num(lo)} and "
+                             f"{_num(hi)}{' ' + unit if unit else ''}, got {_num(value)}")
+
 
 def _number(option, *, positive=False, nonnegative=False):
     def parse(text):
@@ -99,7 +140,7 @@ def add_arguments(parser):
                    help="end the throw at the vertical plane x = X (an inlet) instead of "
                         "the ground, e.g. --inlet-x-m 0.5")
     f.add_argument("--points", type=int, default=101, metavar="N",
-                   help="trajectory samples (default 101), e.g. --points 201")
+                   help="trajectory samples, 2..1000000 (default 101), e.g. --points 201")
 
     d = parser.add_argument_group("recovery device (section 4, Fig. 5; docs/predict.md)")
     d.add_argument("--device", action="store_true",
@@ -190,14 +231,19 @@ def run(args):
     from vidtrack.predict import (DEFAULT_CP_S_PER_M, ExtrapolationWarning, InletGeometry,
                                   drag_parameter, load_regression, plot_prediction, predict)
 
-    if args.points < 2:
-        raise InputError(f"--points must be >= 2, got {args.points}")
+    _check_limits(args)
+    if args.plot:
+        from vidtrack._atomic import check_output
+        check_output(args.plot, inputs=[args.regression], label=f"--plot {args.plot}")
     if args.straw_mass_kg is not None and args.cp_s_per_m is not None:
         raise InputError("give either --cp-s-per-m or --straw-mass-kg, not both")
     cp = args.cp_s_per_m if args.cp_s_per_m is not None else DEFAULT_CP_S_PER_M
     if args.straw_mass_kg is not None:
         cp = drag_parameter(args.straw_mass_kg, args.straw_area_m2,
                             drag_coefficient=args.drag_coefficient)
+        if not cp <= LIMITS["cp_s_per_m"][1]:
+            raise InputError(f"--straw-mass-kg {args.straw_mass_kg:g} gives Cp = {cp:.4g} "
+                             f"s/m; expected Cp <= {LIMITS['cp_s_per_m'][1]:g} s/m")
     device = None
     if args.device:
         device = InletGeometry(offset_m=args.inlet_offset_m, low_m=args.inlet_low_m,
@@ -215,10 +261,11 @@ def run(args):
             points=args.points)
     if args.plot:
         plot_prediction(prediction, args.plot)
-    if not args.quiet:
-        import sys
-        for w in prediction.warnings:
-            print(f"vidtrack predict: warning: {w}", file=sys.stderr)
+    import logging
+
+    log = logging.getLogger(__name__)
+    for w in prediction.warnings:
+        log.warning("%s", w)
     d = prediction.to_dict()
     if args.json:
         print(json.dumps(d, indent=2))

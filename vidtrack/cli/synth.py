@@ -59,8 +59,10 @@ def add_arguments(parser):
     p = parser
     p.add_argument("out", metavar="OUT", help="run folder to write (new or empty; see --force)")
     p.add_argument("--force", action="store_true",
-                   help="write into a non-empty OUT, replacing a previous synthetic run's "
-                        "scene.toml, truth.json, footage, throws/ and vidtrack/")
+                   help="write into a non-empty OUT that holds a synthetic run (its marker "
+                        "vidtrack-synth.toml), replacing what that run wrote (scene.toml, "
+                        "truth.json, footage, throws/) and vidtrack/; a folder without "
+                        "the marker is never written into")
     p.add_argument("--json", action="store_true", help="print what was written as JSON")
     g = p.add_argument_group("throw")
     g.add_argument("--k", type=_floats(4, "k1,k2,k3,k4"), default=(2.2, 2.5, 4.6, 21.3),
@@ -95,12 +97,14 @@ def add_arguments(parser):
     g.add_argument("--size", type=_size, default=(480, 360), help="WxH pixels (480x360)")
     g.add_argument("--top-size", type=_size, default=None,
                    help="WxH of the top view (default: --size)")
-    g.add_argument("--fps", type=float, default=1200.0, help="capture rate (1200)")
+    g.add_argument("--fps", type=float, default=1200.0,
+                   help="capture rate, 0.1..1e7 frames/s (1200)")
     g.add_argument("--playback-fps", type=float, default=30.0,
                    help="rate stated in the AVI container (30)")
     g.add_argument("--flight-s", type=float, default=0.4, help="seconds of flight (0.4)")
     g.add_argument("--frames", type=int, default=None,
-                   help="frames per view (default: release frame + flight)")
+                   help="frames per view, at most 100000 (default: release frame + "
+                        "flight)")
     g.add_argument("--top-delay-s", type=float, default=0.0,
                    help="the top view's frames are this much later, s (0)")
     g.add_argument("--front-axes", type=_axes, default=("+x", "-y"),

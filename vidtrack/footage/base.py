@@ -115,6 +115,11 @@ def _check_fps(fps, what="fps"):
         raise SourceError(f"{what} must be a number of frames per second, got {fps!r}") from None
     if not np.isfinite(value) or value <= 0:
         raise SourceError(f"{what} must be a finite number > 0 (frames/s), got {fps!r}")
+    from vidtrack.scene.model import FPS_RANGE
+
+    if not FPS_RANGE[0] <= value <= FPS_RANGE[1]:
+        raise SourceError(f"{what} must be between {FPS_RANGE[0]:g} and {FPS_RANGE[1]:g} "
+                          f"frames/s (a capture rate), got {fps!r}")
     return value
 
 

@@ -63,6 +63,29 @@ def _inside(path, folder):
     return path == folder or folder in path.parents
 
 
+def _earlier_files(out):
+    """The image files an earlier export's ``frames.csv`` in ``out`` lists (names only).
+
+    Only plain names an export writes (``frame_000123.png``, ``.jpg``, ``.tiff``) count;
+    a missing or unreadable ``frames.csv`` lists nothing.
+    """
+    import csv
+    import re
+
+    path = Path(out) / "frames.csv"
+    if not path.is_file():
+        return []
+    pattern = re.compile(r"frame_\d+(" + "|".join(re.escape(e) for e in
+                                                 EXPORT_FORMATS.values()) + r")")
+    try:
+        with open(path, encoding="utf-8", newline="") as f:
+            rows = list(csv.DictReader(f))
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return []
+    return [r["file"] for r in rows
+            if isinstance(r.get("file"), str) and pattern.fullmatch(r["file"])]
+
+
 def export_frames(source, out, *, every=1, fmt="png", quiet=False):
     """Write the frames of a source as numbered image files plus ``frames.csv``.
 
@@ -102,7 +125,9 @@ def export_frames(source, out, *, every=1, fmt="png", quiet=False):
     Nothing is written unless every frame could be read and encoded: the images go to
     a hidden staging folder beside ``out`` and are moved in at the end; ``frames.csv``
     is written (atomically) last, so its presence means the export is complete.
-    Existing files in ``out`` with other names are left alone.
+    When ``out`` holds an earlier export, the images its ``frames.csv`` listed that the
+    new one does not are removed after the new ones are in place (so no stale frame
+    sits beside the new ``frames.csv``); other files in ``out`` are left alone.
     """
     import csv
     import io
@@ -122,8 +147,9 @@ def export_frames(source, out, *, every=1, fmt="png", quiet=False):
         raise VidtrackError(
             f"{source.path}: jpg holds 8-bit pixels but this source has {source.dtype} pixels "
             f"({source.bit_depth} significant bits); use --format png or tiff to keep them")
-    if out.exists() and not out.is_dir():
-        raise VidtrackError(f"{out}: exists and is not a folder")
+    from vidtrack._atomic import check_output
+
+    check_output(out, inputs=[source.path], folder=True)
     if isinstance(source, ImageFolderSource) and _inside(out, source.path):
         raise VidtrackError(f"{out}: the output folder must not be inside the input image folder "
                             f"{source.path} (inputs are never modified)")
@@ -151,10 +177,15 @@ def export_frames(source, out, *, every=1, fmt="png", quiet=False):
         for i, name in zip(picks, names):
             writer.writerow([int(numbers[i]), repr(float(times[i])), name])
         out.mkdir(exist_ok=True)
+        earlier = _earlier_files(out)
         for name in names:
             os.replace(stage / name, out / name)
         write_text(out / "frames.csv", buf.getvalue())
         stage.rmdir()
+        kept = set(names)
+        for name in earlier:
+            if name not in kept and (out / name).is_file():
+                (out / name).unlink()
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
         raise

@@ -40,6 +40,10 @@ class Coefficient:
     ci95: object = None
     residual_sd: object = None
 
+    def __repr__(self):
+        se = "" if self.stderr is None else f", stderr={self.stderr:.3g}"
+        return f"Coefficient(value={self.value:.5g}{se})"
+
     def to_dict(self):
         """Plain JSON-ready values."""
         return {"value": self.value, "stderr": self.stderr,
@@ -56,6 +60,13 @@ class CoefficientPrediction:
     coded: dict
     extrapolation: bool
     warnings: tuple = ()
+
+    def __repr__(self):
+        setting = ", ".join(f"{k}={v:g}" for k, v in self.setting.items())
+        ks = ", ".join(f"{r}={c.value:#.4g}" + ("" if c.stderr is None else f"±{c.stderr:.2g}")
+                       for r, c in self.coefficients.items())
+        extra = ", extrapolation" if self.extrapolation else ""
+        return f"CoefficientPrediction({setting}: {ks}{extra})"
 
     @property
     def k(self):

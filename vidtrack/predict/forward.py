@@ -22,6 +22,7 @@ Every length is in m, in the world frame of SPEC.md (origin at the blade shaft, 
 y up, z along travel, z relative to the machine); the factors keep the paper's units.
 """
 
+import logging
 import math
 from dataclasses import dataclass, field
 
@@ -31,6 +32,8 @@ from vidtrack.predict.coefficients import CoefficientPrediction, predict_coeffic
 from vidtrack.predict.placement import place_device
 from vidtrack.predict.regression import load_regression
 from vidtrack.predict.trajectory import DEFAULT_CP_S_PER_M, Trajectory, throw_trajectory
+
+log = logging.getLogger(__name__)
 
 #: Working depth of the blade tip in the soil (Chen 2018, section 3.2): the default
 #: shaft height is H = R - 0.050 m.
@@ -53,6 +56,16 @@ class Prediction:
     warnings: tuple = ()
     notes: tuple = ()
     extra: dict = field(default_factory=dict)
+
+    def __repr__(self):
+        s = self.coefficients.setting
+        setting = ", ".join(f"{k}={v:g}" for k, v in s.items())
+        ks = ", ".join(f"{v:#.4g}" for v in self.coefficients.k)
+        end = ", ".join(f"{v:.3g}" for v in self.trajectory.end_point_m)
+        more = "".join(f", {n} {w}" for n, w in ((len(self.warnings), "warnings"),
+                                                 (len(self.notes), "notes")) if n)
+        return (f"Prediction({setting}: k=({ks}), end={self.trajectory.end!r} at "
+                f"({end}) m{more})")
 
     def to_dict(self):
         """The ``vidtrack predict --json`` object (SPEC.md keys first)."""
@@ -151,6 +164,8 @@ def predict(n_rpm, blade_angle_deg, speed_kmh, *, regression=None, radius_m=0.25
     traj = throw_trajectory(state, coefs.k, cp_s_per_m, v1_m_s=v1,
                             shaft_height_m=shaft_height_m, inlet_x_m=inlet_x_m,
                             k_variance=kvar, points=points, g=g)
+    for note in notes:
+        log.info("%s", note)
     return Prediction(coefs, rel, traj, placement, regression.source,
                       regression.provenance, regression.has_covariance,
                       tuple(coefs.warnings), tuple(notes))

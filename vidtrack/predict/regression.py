@@ -103,6 +103,11 @@ class ResponseModel:
     factors: dict
     design_range: dict
 
+    def __repr__(self):
+        cov = "with" if self.covariance is not None else "no"
+        return (f"ResponseModel(response={self.response!r}, terms={len(self.terms)}, "
+                f"{cov} covariance)")
+
     def design_vector(self, values):
         """The terms evaluated at ``values`` (a mapping of factor name to value)."""
         return np.array([evaluate_term(t, values) for t in self.terms])
@@ -124,6 +129,13 @@ class Regression:
     models: dict
     source: str
     provenance: object = None
+
+    def __repr__(self):
+        from pathlib import PurePath
+
+        cov = "with" if self.has_covariance else "no"
+        return (f"Regression(responses={', '.join(self.models)}, "
+                f"source={PurePath(str(self.source)).name!r}, {cov} covariance)")
 
     @property
     def has_covariance(self):

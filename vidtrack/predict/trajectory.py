@@ -83,6 +83,12 @@ class Trajectory:
     z_sd_at_x_m: object = None
     end_sd_m: object = None
 
+    def __repr__(self):
+        end = ", ".join(f"{v:.4g}" for v in self.end_point_m)
+        band = "" if self.y_sd_at_x_m is None else ", with band"
+        return (f"Trajectory(end={self.end!r}, t_end_s={self.t_end_s:.4g}, "
+                f"end_point_m=({end}), points={len(self.t_s)}{band})")
+
     @property
     def end_point_m(self):
         """``(x, y, z)`` at the end."""

@@ -64,7 +64,9 @@ class _Checker:
         return value
 
     def number(self, table, key, path, *, required=False, default=None, gt=None, ge=None,
-               what=None):
+               within=None, what=None):
+        """A finite number (``gt``/``ge`` bounds; ``within`` = (low, high, unit): a
+        physically meaningful range, checked after the bounds)."""
         if key not in table:
             if required:
                 self.fail(path, f"is required: {what}" if what else "is required")
@@ -78,6 +80,9 @@ class _Checker:
             self.fail(path, f"must be > {gt}, got {value}")
         if ge is not None and not value >= ge:
             self.fail(path, f"must be >= {ge}, got {value}")
+        if within is not None and not within[0] <= value <= within[1]:
+            low, high, unit = within
+            self.fail(path, f"must be between {low:g} and {high:g} {unit}, got {value}")
         return float(value)
 
     def string(self, table, key, path, *, required=False, default=None, what=None):

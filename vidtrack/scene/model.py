@@ -2,7 +2,7 @@
 
 A run folder's ``scene.toml`` says where the footage is, at what capture rate, how its
 pixels map to the world frame (axes, origin, scale), and what straw and machine the run
-had (SPEC.md "scene.toml"). A :class:`Scene` is that file validated: the run's name and
+had (every key: docs/scene.md). A :class:`Scene` is that file validated: the run's name and
 factors, :class:`Physics`, the :class:`Straw` (which fixes the drag parameter Cp), the
 machine's speed and one :class:`ViewSpec` per view (with its :class:`Ruler` when a ruler
 gives the scale). Here too are the schema's constants: the file name, the schema number,
@@ -22,7 +22,7 @@ from vidtrack.scene.folders import find_throw_dirs
 SCENE_FILE = "scene.toml"
 #: The scene.toml and experiment.toml schema this package reads and writes.
 SCHEMA = 1
-#: The world axes each view sees (SPEC "Views").
+#: The world axes each view sees (docs/reference.md, "Views").
 VIEW_AXES = {"front": ("x", "y"), "top": ("x", "z")}
 
 GRAVITY_M_S2 = 9.80665
@@ -30,8 +30,11 @@ AIR_DENSITY_KG_M3 = 1.205
 #: Largest relative difference accepted between a given Cp and the one computed from
 #: the straw's mass, area and drag coefficient when both are in the file.
 CP_TOLERANCE = 0.01
+#: Capture rates accepted, frames/s: a frame every 10 s up to 10 million frames/s (the
+#: fastest cameras film a few million); outside it a rate is a typo (1e-300, 1e300).
+FPS_RANGE = (0.1, 1e7)
 
-_TOP_KEYS = ("schema", "run", "factors", "physics", "straw", "machine", "views")
+_TOP_KEYS = ("schema", "run", "factors", "physics", "straw", "machine", "world", "views")
 _VIEW_KEYS = ("source", "fps", "axes", "origin_px", "ruler", "m_per_px", "calibration",
               "frames", "sync_frame")
 
@@ -90,7 +93,7 @@ class Straw:
 
     @property
     def cp_s_per_m(self):
-        """The drag parameter Cp in s/m (MODEL.md section 1): given, else computed.
+        """The drag parameter Cp in s/m (docs/throw-models.md): given, else computed.
 
         None when neither ``cp_s_per_m`` nor all of mass, area and drag coefficient are
         in the file (see :attr:`cp_missing`).
@@ -255,8 +258,8 @@ class Scene:
         else 0.
     machine_speed_from : str
         Where it came from: ``"machine"``, ``"factors"`` or ``"default"``.
-    views : dict of str to ViewSpec
-        ``"front"`` and/or ``"top"``.
+    views : dict of str to ViewSpec or vidtrack.scene.cameras.CameraView
+        ``"front"`` and/or ``"top"``; with ``world``, calibrated views of any name.
     hash : str
         sha256 (hex) of the scene's canonical content (:meth:`to_dict` as sorted JSON)
         and of the content of every calibration file it names: it changes exactly when
@@ -273,10 +276,11 @@ class Scene:
     machine_speed_from: str
     views: dict
     hash: str = field(default="", compare=False)
+    world: object = None
 
     @property
     def v1_m_s(self):
-        """The machine's travel speed v1 in m/s (SPEC "World frame")."""
+        """The machine's travel speed v1 in m/s: the world frame rides on the machine along +Z."""
         return self.machine_speed_kmh / 3.6
 
     @property
@@ -285,8 +289,16 @@ class Scene:
         return self.straw.cp_s_per_m
 
     @property
+    def calibrated(self):
+        """True for calibrated cameras at any angle (a ``[world]`` table), False for the
+        orthogonal ``front``/``top`` views with a scale."""
+        return self.world is not None
+
+    @property
     def view_names(self):
-        """The views present, ``front`` before ``top``."""
+        """The views present: ``front`` before ``top``, or calibrated views in file order."""
+        if self.calibrated:
+            return tuple(self.views)
         return tuple(v for v in ("front", "top") if v in self.views)
 
     def throw_dirs(self):
@@ -308,5 +320,7 @@ class Scene:
             out["straw"] = straw
         if self.machine_speed_from == "machine":
             out["machine"] = {"speed_kmh": self.machine_speed_kmh}
+        if self.world is not None:
+            out["world"] = self.world.to_dict()
         out["views"] = {name: self.views[name].to_dict() for name in self.view_names}
         return out

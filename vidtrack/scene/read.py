@@ -18,8 +18,10 @@ import math
 from pathlib import Path
 
 from calibration.errors import InputError
+from calibration.scale import M_PER_PX_RANGE
 from calibration.views import parse_axes
 from vidtrack.errors import SceneError
+from vidtrack.scene.cameras import parse_camera_view, parse_world
 from vidtrack.scene._check import (
     _canonical_hash,
     _Checker,
@@ -33,6 +35,7 @@ from vidtrack.scene.model import (
     _VIEW_KEYS,
     AIR_DENSITY_KG_M3,
     CP_TOLERANCE,
+    FPS_RANGE,
     GRAVITY_M_S2,
     SCENE_FILE,
     SCHEMA,
@@ -101,7 +104,8 @@ def _parse_scale(ck, view, path, folder):
         if ruler.from_px == ruler.to_px:
             ck.fail(rp, f"spans 0 pixels: from_px {list(ruler.from_px)} equals to_px "
                     f"{list(ruler.to_px)}; expected two different points")
-    m_given = ck.number(view, "m_per_px", f"{path}.m_per_px", gt=0)
+    m_given = ck.number(view, "m_per_px", f"{path}.m_per_px", gt=0,
+                        within=(*M_PER_PX_RANGE, "m per pixel"))
     calib_text = ck.string(view, "calibration", f"{path}.calibration")
     if ruler is not None and m_given is not None:
         ck.fail(path, "gives two scales (ruler and m_per_px); expected one of them")
@@ -152,31 +156,8 @@ def _parse_scale(ck, view, path, folder):
     return scale, ruler, m_given, calib_path, calib_text, camera
 
 
-def _parse_view(ck, name, view, folder):
-    path = f"views.{name}"
-    if not isinstance(view, dict):
-        ck.fail(path, f"must be a table, got {_type_name(view)} {_show(view)}")
-    ck.keys(view, _VIEW_KEYS, path)
-    source_text = ck.string(view, "source", f"{path}.source", required=True,
-                            what="the footage (video file, image folder or .cine), e.g. "
-                                 f"\"{name}.avi\"")
-    fps = ck.number(view, "fps", f"{path}.fps", required=True, gt=0,
-                    what="the capture rate in frames/s, e.g. 1200")
-    if "axes" not in view:
-        ck.fail(f"{path}.axes", f"is required: the world axes along image column and row, "
-                f"e.g. {_example_axes(name)}")
-    try:
-        axes = parse_axes(view["axes"])
-    except InputError as exc:
-        ck.fail(f"{path}.axes", str(exc).removeprefix("axes "))
-    want = VIEW_AXES[name]
-    if tuple(sorted(a[1] for a in axes)) != want:
-        ck.fail(f"{path}.axes", f"must be the world axes {want[0]} and {want[1]} (the {name} "
-                f"view sees {want[0].upper()} and {want[1].upper()}), got {_show(list(axes))}")
-    origin = ck.pair(view, "origin_px", f"{path}.origin_px", required=True,
-                     what="[u, v]: the pixel of the world origin O")
-    scale, ruler, m_given, calib_path, calib_text, camera = _parse_scale(ck, view, path, folder)
-
+def _frames_and_sync(ck, view, path):
+    """A view's ``frames`` range and ``sync_frame``."""
     frames = None
     if "frames" in view:
         fr = view["frames"]
@@ -195,6 +176,36 @@ def _parse_view(ck, name, view, folder):
                     f"got {_type_name(sync)} {_show(sync)}")
         if sync < 0:
             ck.fail(f"{path}.sync_frame", f"must be >= 0 (a 0-based frame index), got {sync}")
+    return frames, sync
+
+
+def _parse_view(ck, name, view, folder):
+    path = f"views.{name}"
+    if not isinstance(view, dict):
+        ck.fail(path, f"must be a table, got {_type_name(view)} {_show(view)}")
+    ck.keys(view, _VIEW_KEYS, path)
+    source_text = ck.string(view, "source", f"{path}.source", required=True,
+                            what="the footage (video file, image folder or .cine), e.g. "
+                                 f"\"{name}.avi\"")
+    fps = ck.number(view, "fps", f"{path}.fps", required=True, gt=0,
+                    within=(*FPS_RANGE, "frames/s"),
+                    what="the capture rate in frames/s, e.g. 1200")
+    if "axes" not in view:
+        ck.fail(f"{path}.axes", f"is required: the world axes along image column and row, "
+                f"e.g. {_example_axes(name)}")
+    try:
+        axes = parse_axes(view["axes"])
+    except InputError as exc:
+        ck.fail(f"{path}.axes", str(exc).removeprefix("axes "))
+    want = VIEW_AXES[name]
+    if tuple(sorted(a[1] for a in axes)) != want:
+        ck.fail(f"{path}.axes", f"must be the world axes {want[0]} and {want[1]} (the {name} "
+                f"view sees {want[0].upper()} and {want[1].upper()}), got {_show(list(axes))}")
+    origin = ck.pair(view, "origin_px", f"{path}.origin_px", required=True,
+                     what="[u, v]: the pixel of the world origin O")
+    scale, ruler, m_given, calib_path, calib_text, camera = _parse_scale(ck, view, path, folder)
+
+    frames, sync = _frames_and_sync(ck, view, path)
     source = _resolve(folder, source_text) if folder is not None else Path(source_text)
     return ViewSpec(name=name, source=source, source_text=source_text, fps=fps, axes=axes,
                     origin_px=origin, scale=scale, ruler=ruler, m_per_px_given=m_given,
@@ -273,24 +284,40 @@ def parse_scene(data, *, folder, label=SCENE_FILE, path=None):
     views_table = ck.table(data, "views", "views")
     if views_table is None:
         ck.fail("views", "is required: a [views.front] and/or a [views.top] table")
-    for name in views_table:
+    world = parse_world(ck, data)
+    if world is None:
+        for name, view in views_table.items():
+            if isinstance(view, dict) and ("dlt" in view or "projection" in view):
+                ck.fail("world", "is required with calibrated cameras (views."
+                        f"{name} has {'dlt' if 'dlt' in view else 'projection'}): "
+                        "[world] up = [x, y, z], the calibration frame's vertical")
+    else:
+        if len(views_table) < 2:
+            ck.fail("views", "calibrated cameras need two or more views (one view cannot "
+                    f"place a point in 3-D), got {len(views_table)}")
+        views = {name: parse_camera_view(ck, name, view, folder, fps_range=FPS_RANGE,
+                                         frames_and_sync=_frames_and_sync)
+                 for name, view in views_table.items()}
+    for name in (views_table if world is None else ()):
         if name not in VIEW_AXES:
             near = difflib.get_close_matches(name, list(VIEW_AXES), n=1)
             hint = f" (did you mean {near[0]!r}?)" if near else ""
             ck.fail(f"views.{name}", f"is not a view name{hint}; expected front or top")
     if not views_table:
         ck.fail("views", "must have a front or a top view (or both), got none")
-    views = {name: _parse_view(ck, name, views_table[name], folder)
-             for name in ("front", "top") if name in views_table}
+    if world is None:
+        views = {name: _parse_view(ck, name, views_table[name], folder)
+                 for name in ("front", "top") if name in views_table}
 
     scene = Scene(path=Path(path) if path is not None else
                   (folder / SCENE_FILE if folder is not None else Path(SCENE_FILE)),
                   folder=folder if folder is not None else Path("."),
                   run_name=run_name, factors=factors, physics=physics, straw=straw,
-                  machine_speed_kmh=speed, machine_speed_from=speed_from, views=views)
+                  machine_speed_kmh=speed, machine_speed_from=speed_from, views=views,
+                  world=world)
     calib = {name: {"camera": v.camera.to_dict() if v.camera is not None else None,
                     "scale": v.scale.to_dict() if v.scale is not None else None}
-             for name, v in views.items() if v.calibration is not None}
+             for name, v in views.items() if v.calibration is not None and world is None}
     digest = _canonical_hash({"scene": scene.to_dict(), "calibration": calib})
     return dataclasses.replace(scene, hash=digest)
 

@@ -116,23 +116,108 @@ def _plain_number(value):
     return int(value) if value.is_integer() and abs(value) < 2 ** 53 else value
 
 
-def _check_out(out_dir, force):
-    if out_dir.exists() and not out_dir.is_dir():
-        _fail(f"{out_dir}: exists and is not a folder")
-    if out_dir.is_dir():
-        present = sorted(p.name for p in out_dir.iterdir())
-        if present and not force:
-            shown = ", ".join(present[:5]) + (", ..." if len(present) > 5 else "")
-            _fail(f"{out_dir}: the folder is not empty (holds {shown}); choose a new or "
-                  "empty folder, or pass --force to replace the synthetic run in it")
+#: The marker ``vidtrack synth`` writes into every run folder it renders: TOML with the
+#: generator, the vidtrack version, the time and the top-level entries it wrote. Without
+#: it synth never writes into a non-empty folder (``--force`` included); with it,
+#: ``--force`` replaces only those entries (and ``vidtrack/``, results computed from them).
+MARKER_FILE = "vidtrack-synth.toml"
 
 
-def _replaceable(names):
-    """Top-level entries a previous synthetic run may have left (replaced with force)."""
-    out = set(names) | {"scene.toml", TRUTH_FILE, "throws", "vidtrack"}
+def _known_names():
+    """Top-level entries synth can write: the only ones a marker may hand over."""
+    out = {"scene.toml", TRUTH_FILE, "throws", MARKER_FILE}
     for view in VIEW_NAMES:
         out |= {view, f"{view}.avi", f"{view}.cine"}
     return out
+
+
+def _read_marker(out_dir):
+    """The entries a previous render listed in ``out_dir``'s marker, or None (no marker).
+
+    Only names synth can write count (a marker cannot hand over anything else).
+    """
+    import tomllib
+
+    path = out_dir / MARKER_FILE
+    if not path.is_file():
+        return None
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        _fail(f"{path}: the marker of a synthetic run cannot be read ({exc}); expected "
+              "the TOML file vidtrack synth writes")
+    files = data.get("files")
+    if data.get("generator") != "vidtrack synth" or not isinstance(files, list) \
+            or not all(isinstance(f, str) for f in files):
+        _fail(f"{path}: not a marker written by vidtrack synth (expected generator = "
+              "\"vidtrack synth\" and a files list)")
+    return set(files) & _known_names()
+
+
+def _marker_text(names):
+    from datetime import datetime, timezone
+
+    from vidtrack import __version__
+
+    when = datetime.now(timezone.utc).replace(microsecond=0).isoformat()
+    listed = ", ".join(f'"{n}"' for n in sorted(set(names) | {MARKER_FILE}))
+    return ("# Written by 'vidtrack synth': this folder is a synthetic run. 'vidtrack synth\n"
+            "# --force' may replace the entries listed in files (and vidtrack/); delete\n"
+            "# this file to keep synth from ever writing here again.\n"
+            f'generator = "vidtrack synth"\nvidtrack_version = "{__version__}"\n'
+            f'created = "{when}"\nfiles = [{listed}]\n')
+
+
+def _check_out(out_dir, force):
+    """Refuse an output folder synth must not write into; the entries it may replace.
+
+    Returns the set of top-level names a previous synthetic run left (from its marker),
+    empty for a new or empty folder.
+    """
+    from vidtrack._atomic import check_output
+
+    check_output(out_dir, folder=True)
+    if not out_dir.is_dir():
+        return set()
+    present = sorted(p.name for p in out_dir.iterdir())
+    if not present:
+        return set()
+    shown = ", ".join(present[:5]) + (", ..." if len(present) > 5 else "")
+    previous = _read_marker(out_dir)
+    if previous is None:
+        _fail(f"{out_dir}: the folder is not empty (holds {shown}) and has no "
+              f"{MARKER_FILE}, so vidtrack synth did not write it; synth writes only into "
+              "a new or empty folder or over a synthetic run of its own (with --force), "
+              "expected one of those")
+    if not force:
+        _fail(f"{out_dir}: the folder is not empty (holds {shown}); choose a new or "
+              "empty folder, or pass --force to replace the synthetic run in it")
+    return previous
+
+
+def _top_names(spec):
+    """The top-level entries a render of ``spec`` writes (besides the marker)."""
+    if spec.throws > 1:
+        footage = {"throws"}
+    else:
+        footage = {_source_name(spec, view) for view in spec.views}
+    return footage | {"scene.toml", TRUTH_FILE}
+
+
+def _check_clash(out_dir, spec, previous):
+    """Refuse to replace an entry of a synthetic run's folder its marker does not list."""
+    for name in sorted(_top_names(spec) - set(previous)):
+        path = out_dir / name
+        if path.exists() or path.is_symlink():
+            _fail(f"{path}: exists, and the marker {MARKER_FILE} does not list it, so "
+                  "vidtrack synth did not write it; expected it moved away (or another "
+                  "output folder)")
+
+
+def _replaceable(names, previous):
+    """Top-level entries replaced: what the previous render listed in its marker, the
+    new render's entries, and ``vidtrack/`` (results computed from the old footage)."""
+    return (set(previous) | set(names) | {"vidtrack"}) - {MARKER_FILE}
 
 
 def _remove(path):
@@ -153,10 +238,12 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
     spec : SynthSpec, optional
         All parameters (default ``SynthSpec()``).
     force : bool, keyword-only
-        Write into a non-empty folder: the outputs of a previous synthetic run
+        Write into a non-empty folder that holds a synthetic run written by this
+        function (its marker ``vidtrack-synth.toml``): the entries its marker lists
         (``scene.toml``, ``truth.json``, ``front``/``top`` footage in any format,
         ``throws/``) and ``vidtrack/`` (results computed from the old footage) are
-        replaced; other files are left alone.
+        replaced; other files are left alone. A non-empty folder without the marker is
+        refused, with or without ``force``.
     quiet : bool, keyword-only
         No progress bar.
 
@@ -167,8 +254,9 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
     Raises
     ------
     VidtrackError
-        A non-empty ``out_dir`` without ``force``, an ``out_dir`` that is a file, or
-        impossible parameters (checked by :class:`SynthSpec`).
+        A non-empty ``out_dir`` without ``force``, a non-empty ``out_dir`` without the
+        marker (not a synthetic run), an ``out_dir`` that is a file or cannot be
+        written to, or impossible parameters (checked by :class:`SynthSpec`).
 
     Notes
     -----
@@ -178,7 +266,8 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
     Layout: ``scene.toml``, ``truth.json`` and the footage (``front.avi`` or
     ``front/frame_000000.png ..`` or ``front.cine``; likewise ``top``) at the root; with
     ``throws > 1`` the footage and a ``truth.json`` per throw in ``throws/01 ..``, and
-    the root ``truth.json`` summarises the throws.
+    the root ``truth.json`` summarises the throws. The marker ``vidtrack-synth.toml``
+    (generator, version, time, the entries written) is written last.
     """
     from vidtrack._atomic import write_text
     from vidtrack._progress import progress
@@ -189,7 +278,8 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
         raise TypeError(f"spec must be a SynthSpec, got {type(spec).__name__}")
     started = time.perf_counter()
     out_dir = Path(out_dir)
-    _check_out(out_dir, force)
+    previous = _check_out(out_dir, force)
+    _check_clash(out_dir, spec, previous)
     run_name = spec.run_name or out_dir.resolve().name
 
     throws = _make_throws(spec)
@@ -244,10 +334,12 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
         write_text(stage / TRUTH_FILE, _truth_text(root_truth))
         write_scene(stage, _scene_dict(spec, views, run_name, release))
         names = sorted(p.name for p in stage.iterdir())
-        for name in _replaceable(names):
+        for name in sorted(_replaceable(names, previous)):
             _remove(out_dir / name)
         for name in names:
             os.replace(stage / name, out_dir / name)
+        write_text(out_dir / MARKER_FILE, _marker_text(names))
+        names.append(MARKER_FILE)
         stage.rmdir()
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)

@@ -10,6 +10,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from calibration.scale import M_PER_PX_RANGE
 from vidtrack.errors import VidtrackError
 from vidtrack.scene.model import FPS_RANGE
 
@@ -217,14 +218,17 @@ def _validate(s):
     from fits.throw import MODELS
 
     k = _vector("k", s.k, 4)
-    if np.any(k <= 0):
-        _fail(f"k1..k4 must all be > 0, got {list(s.k)}")
-    _number("cp_s_per_m", s.cp_s_per_m, ge=0)
+    if np.any(k <= 0) or np.any(k > 1e3):
+        _fail(f"k1..k4 must all be > 0 and <= 1000, got {list(s.k)}")
+    _number("cp_s_per_m", s.cp_s_per_m, ge=0, le=10)
     state = _vector("state (x0, y0, z0, vx0, vy0, vz0)", s.state, 6)
+    if np.any(np.abs(state[:3]) > 100) or np.any(np.abs(state[3:]) > 1e3):
+        _fail("state must be a release point within 100 m of the shaft and a velocity "
+              f"within 1000 m/s in each axis, got {list(s.state)}")
     if math.hypot(state[0], state[1]) < 0.02:
         _fail("the release point (x0, y0) must be at least 0.02 m from the shaft (the "
               f"straw leaves a tooth), got ({state[0]}, {state[1]})")
-    _number("speed_kmh", s.speed_kmh, ge=0)
+    _number("speed_kmh", s.speed_kmh, ge=0, le=100)
     if s.model not in MODELS:
         _fail(f"model must be one of {', '.join(MODELS)}, got {s.model!r}")
     _number("gravity_m_s2", s.gravity_m_s2, gt=0)
@@ -234,8 +238,11 @@ def _validate(s):
         _fail(f"straw_diameter_m ({s.straw_diameter_m}) must not exceed straw_length_m "
               f"({s.straw_length_m})")
     if s.spin_rad_s is not None:
-        _number("spin_rad_s", s.spin_rad_s)
+        _number("spin_rad_s", s.spin_rad_s, ge=-1e5, le=1e5)
     axis = _vector("spin_axis", s.spin_axis, 3)
+    if np.any(np.abs(axis) > 1e6):
+        _fail(f"spin_axis must be a direction x,y,z with components within +-1e6, got "
+              f"{list(s.spin_axis)}")
     if np.linalg.norm(axis) == 0:
         _fail("spin_axis must not be the zero vector")
     for name in ("straw_grey", "background_grey"):
@@ -246,7 +253,7 @@ def _validate(s):
     _number("n_rpm", s.n_rpm)
     _number("blade_angle_deg", s.blade_angle_deg)
     if s.blade_rpm is not None:
-        _number("blade_rpm", s.blade_rpm)
+        _number("blade_rpm", s.blade_rpm, ge=-1e5, le=1e5)
     if s.blade_radius_m is not None:
         _number("blade_radius_m", s.blade_radius_m, gt=0)
     _number("release_frame", s.release_frame, ge=0, integer=True)
@@ -293,15 +300,15 @@ def _validate(s):
             _fail(f"{name} must be the world axes {want[0]} and {want[1]} (the {view} view "
                   f"sees them), got {list(getattr(s, name))}")
     if s.m_per_px is not None:
-        _number("m_per_px", s.m_per_px, gt=0)
+        _number("m_per_px", s.m_per_px, ge=M_PER_PX_RANGE[0], le=M_PER_PX_RANGE[1])
     _number("exposure_fraction", s.exposure_fraction, ge=0, le=1)
     _number("exposure_samples", s.exposure_samples, ge=1, le=256, integer=True)
     _number("supersample", s.supersample, ge=1, le=64, integer=True)
     _number("texture_amplitude", s.texture_amplitude, ge=0, le=0.5)
     _number("vignetting", s.vignetting, ge=0, le=0.5)
-    _number("read_noise_dn", s.read_noise_dn, ge=0)
+    _number("read_noise_dn", s.read_noise_dn, ge=0, le=255)
     if s.full_well_e is not None:
-        _number("full_well_e", s.full_well_e, gt=0)
+        _number("full_well_e", s.full_well_e, ge=1, le=1e9)
     if s.second_straw:
         _number("second_cross_s", s.second_cross_s, gt=0)
         _number("second_flight_s", s.second_flight_s, gt=0)

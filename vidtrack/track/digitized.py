@@ -25,12 +25,10 @@ from pathlib import Path
 import numpy as np
 
 from vidtrack.errors import SceneError
+from vidtrack.scene.cameras import POINT_FORMATS
 from vidtrack.track.tracker import TRACK_COLUMNS, Track
 
-__all__ = ["read_points", "POINT_FORMATS"]
-
-#: The formats :func:`read_points` reads.
-POINT_FORMATS = ("dltdv", "tracker", "csv")
+__all__ = ["read_points", "sniff_format", "POINT_FORMATS"]
 
 _XYPTS = re.compile(r"^pt(\d+)_cam(\d+)_([XY])$")
 
@@ -131,7 +129,25 @@ def _plain(text, where):
     return np.array(frames, dtype=int), np.array(uv, dtype=float).reshape(-1, 2)
 
 
-def read_points(path, *, fps, fmt="csv", camera=1, point=1, view=None):
+def sniff_format(path):
+    """The format of a points file from its first lines, or None when it is none of them."""
+    try:
+        with open(path, encoding="utf-8-sig", errors="replace") as f:
+            head = [f.readline() for _ in range(2)]
+    except OSError:
+        return None
+    cells = [[c.strip().lower() for c in re.split(r"[,\t]", ln)] for ln in head]
+    if cells and any(_XYPTS.match(c) for c in re.split(r"[,\t]", head[0].strip())):
+        return "dltdv"
+    if cells and {"frame", "u_px", "v_px"} <= set(cells[0]):
+        return "csv"
+    for row in cells:
+        if {"t", "x", "y"} <= set(row):
+            return "tracker"
+    return None
+
+
+def read_points(path, *, fps, fmt=None, camera=1, point=1, view=None):
     """Read a view's points digitized elsewhere as a :class:`~vidtrack.track.tracker.Track`.
 
     Parameters
@@ -140,8 +156,8 @@ def read_points(path, *, fps, fmt="csv", camera=1, point=1, view=None):
         The file.
     fps : float
         The view's capture rate (frames/s): time is ``frame / fps``.
-    fmt : {"dltdv", "tracker", "csv"}
-        The file's format (see the module).
+    fmt : {"dltdv", "tracker", "csv"} or None
+        The file's format (see the module); None: recognised from its first lines.
     camera, point : int
         DLTdv only: which camera's columns and which point (1-based, as DLTdv numbers them).
     view : str or None
@@ -162,6 +178,12 @@ def read_points(path, *, fps, fmt="csv", camera=1, point=1, view=None):
     import pandas as pd
 
     where = f"view {view}: points {Path(path).name}" if view else f"points {Path(path).name}"
+    if fmt is None and Path(path).is_file():
+        fmt = sniff_format(path)
+        if fmt is None:
+            raise SceneError(f"{where}: not a DLTdv xypts file, a Tracker data table or a CSV "
+                             "with frame, u_px, v_px; say which with points.format")
+    fmt = fmt or "csv"
     if fmt not in POINT_FORMATS:
         raise SceneError(f"{where}: format must be one of {', '.join(POINT_FORMATS)}, "
                          f"got {fmt!r}")

@@ -1,0 +1,551 @@
+"""Hostile inputs: ONE table, every row the real command line in a subprocess.
+
+Add a case by adding a row to ``CASES``, not a test. A row is a :class:`Case`:
+
+- ``id``: what the case is (``command-what``);
+- ``setup(w)``: builds the inputs in the empty work folder ``w`` (helpers below:
+  :func:`files`, :func:`copied`, :func:`chen_table`, :func:`run42_copy`,
+  :func:`synthetic_run`, :func:`earlier_export`, :func:`unwritable_folder`, combined with
+  :func:`both`); it may return a dict of extra placeholders for ``args``;
+- ``args``: the command line after ``vidtrack``, run with ``w`` as the working folder;
+  ``{repo}``, ``{w}`` and the setup's placeholders are filled in (``"{ro}/out.toml"``);
+- ``code``: the exit code expected (2: bad input, 0: done);
+- ``stderr``: a regex the message must match (``re.search``): for exit 2 the single
+  line on stderr, for exit 0 anywhere on stderr (omit it for no check);
+- ``mutable``: glob patterns (relative to ``w``) of files a successful run may replace
+  or remove (``synth --force`` over its own run, a re-extraction of frames);
+- ``check(w, res)``: further assertions after the run.
+
+What every row asserts, on top of that: the exit code; no ``Traceback`` on stderr; for
+exit 2 exactly one non-empty line on stderr (argparse's usage block, which the parser
+prints before its own one-line error, is not counted) and the work folder exactly as
+the setup left it: no file changed, removed or added, no partial output, no temporary
+left behind (every file hashed before and after); for exit 0 every file the setup made
+is unchanged unless ``mutable`` names it.
+
+Rows for ``fit`` and ``report`` (or any other command) go in the same table:
+:func:`run42_copy` copies the sample run ``datasets/run42`` into the work folder.
+Keep each row quick (small ``--size``/``--flight-s`` for synth, no fitting): the whole
+module runs in well under a minute.
+"""
+
+import csv
+import fnmatch
+import hashlib
+import os
+import re
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from conftest import run_vidtrack
+
+REPO = Path(__file__).resolve().parents[1]
+PUBLISHED = REPO / "datasets" / "published"
+CHEN = PUBLISHED / "chen2018_table2_ccd.csv"
+RUN42 = REPO / "datasets" / "run42"
+MARKER = "vidtrack-synth.toml"
+
+#: Small and quick synth options (a 64x48 run of 18 frames per view renders in 0.2 s).
+TINY = ("--size", "64x48", "--flight-s", "0.005", "--exposure-samples", "1", "-q")
+#: The Chen 2018 factors in natural units (the table holds their coded columns A, B, C).
+FACTORS = ("--factor", "A=n_rpm:550:100", "--factor", "B=blade_angle_deg:0:5",
+           "--factor", "C=speed_kmh:7.2:1.8")
+SETTING = ("--n-rpm", "450", "--blade-angle-deg", "-10", "--speed-kmh", "6")
+RULER = ("--length-m", "0.5", "--from", "80,482", "--to", "205,482")
+
+
+@dataclass(frozen=True)
+class Case:
+    id: str
+    args: tuple
+    setup: object = None
+    code: int = 2
+    stderr: str = ""
+    mutable: tuple = ()
+    check: object = None
+
+
+# ------------------------------------------------------------------ setup helpers
+
+def files(contents):
+    """A setup writing files: ``files({"run/scene.toml": "schema = 1\n"})`` (text as
+    UTF-8, bytes as they are; folders made as needed)."""
+    def setup(w):
+        for name, content in contents.items():
+            path = w / name
+            path.parent.mkdir(parents=True, exist_ok=True)
+            if isinstance(content, bytes):
+                path.write_bytes(content)
+            else:
+                path.write_text(content, encoding="utf-8")
+    return setup
+
+
+def copied(source, name=None):
+    """A setup copying the file ``source`` into the work folder (as ``name``)."""
+    def setup(w):
+        shutil.copy(source, w / (name or Path(source).name))
+    return setup
+
+
+def both(*setups):
+    """Several setups in turn; their placeholders merged."""
+    def setup(w):
+        out = {}
+        for s in setups:
+            out.update(s(w) or {})
+        return out
+    return setup
+
+
+def chen_table(name="t.csv", edit=None):
+    """Chen 2018 Table 2 copied to ``name``; ``edit(rows)`` changes the rows (lists of
+    cells, the header first) in place before they are written."""
+    def setup(w):
+        with open(CHEN, newline="", encoding="utf-8") as f:
+            rows = list(csv.reader(f))
+        if edit is not None:
+            edit(rows)
+        with open(w / name, "w", newline="", encoding="utf-8") as f:
+            csv.writer(f, lineterminator="\n").writerows(rows)
+    return setup
+
+
+def cell(row, column, value):
+    """An edit of :func:`chen_table`: data row ``row`` (1-based), ``column`` -> value."""
+    def edit(rows):
+        rows[row][rows[0].index(column)] = value
+    return edit
+
+
+def run42_copy(name="run", drop=("vidtrack",), scene=None):
+    """A setup copying ``datasets/run42`` to ``w/name`` without ``drop`` (its outputs by
+    default); ``scene(text)`` returns an edited scene.toml. For ``fit``/``report`` rows."""
+    def setup(w):
+        shutil.copytree(RUN42, w / name, ignore=shutil.ignore_patterns(*drop))
+        if scene is not None:
+            path = w / name / "scene.toml"
+            path.write_text(scene(path.read_text(encoding="utf-8")), encoding="utf-8")
+    return setup
+
+
+def synthetic_run(name="run", *options):
+    """A setup rendering a tiny synthetic run (with its marker) into ``w/name``."""
+    def setup(w):
+        res = run_vidtrack("synth", w / name, *TINY, *options)
+        assert res.returncode == 0, res.stderr
+    return setup
+
+
+def earlier_export(name="out", frames=range(10), unlisted=("frame_000099.png",),
+                   listed_extra=()):
+    """A folder ``name`` holding an earlier ``vidtrack frames`` export: dummy images
+    listed by its frames.csv, ``unlisted`` images it does not list, and notes.txt."""
+    def setup(w):
+        out = w / name
+        out.mkdir()
+        rows = ["frame,t_s,file"]
+        for i in frames:
+            (out / f"frame_{i:06d}.png").write_bytes(b"old")
+            rows.append(f"{i},{i / 1200!r},frame_{i:06d}.png")
+        rows += [f"0,0.0,{extra}" for extra in listed_extra]
+        for extra in unlisted:
+            (out / extra).write_bytes(b"not from frames.csv")
+        (out / "notes.txt").write_text("mine")
+        (out / "frames.csv").write_text("\n".join(rows) + "\n")
+    return setup
+
+
+def _can_write(folder):
+    try:
+        probe = Path(folder) / ".probe"
+        probe.write_bytes(b"")
+        probe.unlink()
+        return True
+    except OSError:
+        return False
+
+
+def unwritable_folder(w):
+    """``{ro}``: a folder this process cannot write to (mode 555; as root, which ignores
+    modes, a kernel folder such as /sys); skips when there is none."""
+    ro = w / "readonly"
+    ro.mkdir()
+    ro.chmod(0o555)
+    if not _can_write(ro):
+        return {"ro": str(ro)}
+    ro.chmod(0o755)
+    ro.rmdir()
+    for candidate in ("/sys", "/proc/sys"):
+        if Path(candidate).is_dir() and not _can_write(candidate):
+            return {"ro": candidate}
+    pytest.skip("no folder this process cannot write to (root on a writable system)")
+
+
+def scene_value(key, value, view="front"):
+    """A scene.toml edit for :func:`run42_copy`: ``key = value`` in ``[views.VIEW]``."""
+    def edit(text):
+        head = f"[views.{view}]\n"
+        assert head in text
+        return text.replace(head, f"{head}{key} = {value}\n", 1)
+    return edit
+
+
+def scene_scale(value, view="front"):
+    """A scene.toml edit: the view's ruler replaced by ``m_per_px = value``."""
+    def edit(text):
+        text = re.sub(rf"\[views\.{view}\.ruler\]\n(?:[a-z_]+ = .*\n)+", "", text)
+        return scene_value("m_per_px", value, view)(text)
+    return edit
+
+
+# ------------------------------------------------------------------ post-checks
+
+def listing(folder, *names):
+    def check(w, res):
+        assert sorted(p.name for p in (w / folder).iterdir()) == sorted(names)
+    return check
+
+
+def all_of(*checks):
+    def check(w, res):
+        for c in checks:
+            c(w, res)
+    return check
+
+
+def unchanged(path, content):
+    def check(w, res):
+        assert (w / path).read_bytes() == content
+    return check
+
+
+def marker_lists(folder, *names):
+    def check(w, res):
+        import tomllib
+
+        data = tomllib.loads((w / folder / MARKER).read_text())
+        assert data["generator"] == "vidtrack synth" and data["vidtrack_version"]
+        assert sorted(data["files"]) == sorted([*names, MARKER])
+    return check
+
+
+def stdout_has(pattern):
+    def check(w, res):
+        assert re.search(pattern, res.stdout), res.stdout[-2000:]
+    return check
+
+
+# ------------------------------------------------------------------ the table
+
+def _dup_rows(rows):
+    rows += rows[1:]
+
+
+def _dup_run_id(rows):
+    rows[5][0] = rows[4][0]
+
+
+def _dup_column(rows):
+    rows[0][5] = "k1"
+
+
+def _ragged(rows):
+    rows[3].append("9")
+
+
+CASES = [
+    # ---- synth: never writes over footage it did not render (issue item 1) ----------
+    Case("synth-force-over-a-real-run",
+         setup=run42_copy(drop=("vidtrack", "truth.json", MARKER)),
+         args=("synth", "run", "--force", "--size", "160x120", "--flight-s", "0.1", "-q"),
+         stderr=r"run: the folder is not empty \(holds front\.avi, scene\.toml, top\.avi\) "
+                r"and has no vidtrack-synth\.toml.*expected"),
+    Case("synth-force-over-a-real-run-with-throws",
+         setup=files({"run/scene.toml": "schema = 1\n", "run/throws/01/front.avi": b"footage",
+                     "run/throws/notes.txt": "mine"}),
+         args=("synth", "run", "--force", *TINY, "--throws", "2"),
+         stderr=r"not empty .*no vidtrack-synth\.toml"),
+    Case("synth-real-run-without-force", setup=run42_copy(drop=("vidtrack", MARKER)),
+         args=("synth", "run", *TINY), stderr=r"not empty .*no vidtrack-synth\.toml"),
+    Case("synth-own-run-without-force", setup=synthetic_run("run"),
+         args=("synth", "run", *TINY), stderr=r"not empty .*pass --force"),
+    Case("synth-force-replaces-only-its-own-files",
+         setup=both(synthetic_run("run"), files({"run/notes.txt": "mine"})),
+         args=("synth", "run", "--force", *TINY, "--views", "top", "--format", "png"),
+         code=0, mutable=("run/*",),
+         check=all_of(listing("run", "notes.txt", "scene.toml", "top", "truth.json", MARKER),
+                      unchanged("run/notes.txt", b"mine"),
+                      marker_lists("run", "scene.toml", "top", "truth.json"))),
+    Case("synth-force-keeps-an-entry-its-marker-does-not-list",
+         setup=both(synthetic_run("run", "--views", "front"), files({"run/top/x.png": "mine"})),
+         args=("synth", "run", "--force", *TINY, "--views", "top", "--format", "png"),
+         stderr=r"run/top: exists, and the marker vidtrack-synth\.toml does not list it"),
+    Case("synth-force-re-renders-datasets-run42", setup=run42_copy(),
+         args=("synth", "run", "--force", *TINY), code=0, mutable=("run/*",),
+         check=marker_lists("run", "front.avi", "top.avi", "scene.toml", "truth.json")),
+    Case("synth-marker-not-synths",
+         setup=files({"run/front.avi": b"x", f"run/{MARKER}": "junk = [\n"}),
+         args=("synth", "run", "--force", *TINY),
+         stderr=r"vidtrack-synth\.toml: the marker of a synthetic run cannot be read"),
+    Case("synth-out-is-a-file", setup=files({"afile.txt": "x"}), args=("synth", "afile.txt", *TINY),
+         stderr=r"afile\.txt: exists and is not a folder"),
+    Case("synth-parent-is-a-file", setup=files({"afile.txt": "x"}),
+         args=("synth", "afile.txt/run", *TINY), stderr=r"afile\.txt is a file, not a folder"),
+    Case("synth-out-in-unwritable-folder", setup=unwritable_folder,
+         args=("synth", "{ro}/run", *TINY), stderr=r"cannot write in .*expected a folder"),
+    # ---- synth: sizes, counts and numbers bounded (items 2, 8) -----------------------
+    Case("synth-frames-1e11", args=("synth", "run", "--frames", "100000000000", "-q"),
+         stderr=r"frames must be <= 100000, got 100000000000"),
+    Case("synth-fps-1e300", args=("synth", "run", "--fps", "1e300", "--flight-s", "1e-300"),
+         stderr=r"fps must be between 0\.1 and 1e\+07 frames/s, got 1e\+300"),
+    Case("synth-fps-nan", args=("synth", "run", "--fps", "nan"), stderr=r"fps must be finite"),
+    Case("synth-throws-negative", args=("synth", "run", "--throws", "-1"),
+         stderr=r"throws must be >= 1, got -1"),
+    Case("synth-cp-1e300", args=("synth", "run", "--cp", "1e300", *TINY),
+         stderr=r"cp_s_per_m must be <= 10"),
+    Case("synth-full-well-1e300", args=("synth", "run", "--full-well-e", "1e300", *TINY),
+         stderr=r"full_well_e must be <= 1000000000\.0"),
+    Case("synth-spin-axis-1e300", args=("synth", "run", "--spin-axis", "1e300,0,0", *TINY),
+         stderr=r"spin_axis must be a direction .* within \+-1e6"),
+    Case("synth-m-per-px-1e-300", args=("synth", "run", "--m-per-px", "1e-300", *TINY),
+         stderr=r"m_per_px must be >= 1e-09"),
+
+    # ---- predict: sizes and settings bounded (items 2, 8) ----------------------------
+    Case("predict-points-1e9", args=("predict", *SETTING, "--points", "1000000000"),
+         stderr=r"--points must be between 2 and 1000000 samples, got 1000000000"),
+    Case("predict-points-negative", args=("predict", *SETTING, "--points", "-5"),
+         stderr=r"--points must be between 2 and 1000000"),
+    Case("predict-n-rpm-1e300", args=("predict", "--n-rpm", "1e300", *SETTING[2:]),
+         stderr=r"--n-rpm must be between 1 and 100000 r/min, got 1e\+300"),
+    Case("predict-n-rpm-1e-300", args=("predict", "--n-rpm", "1e-300", *SETTING[2:]),
+         stderr=r"--n-rpm must be between 1 and 100000 r/min, got 1e-300"),
+    Case("predict-n-rpm-nan", args=("predict", "--n-rpm", "nan", *SETTING[2:]),
+         stderr=r"--n-rpm must be finite"),
+    Case("predict-speed-1e300", args=("predict", *SETTING[:4], "--speed-kmh", "1e300"),
+         stderr=r"--speed-kmh must be between 0 and 100 km/h"),
+    Case("predict-phase-1e300", args=("predict", *SETTING, "--phase-deg", "1e300"),
+         stderr=r"--phase-deg must be between -360 and 360 deg"),
+    Case("predict-cp-from-a-feather", args=("predict", *SETTING, "--straw-mass-kg", "1e-6"),
+         stderr=r"--straw-mass-kg 1e-06 gives Cp = 32\.5\d* s/m; expected Cp <= 10"),
+    Case("predict-plot-over-its-regression", setup=files({"r.json": "{}"}),
+         args=("predict", *SETTING, "--regression", "r.json", "--plot", "r.json"),
+         stderr=r"--plot r\.json: is the input r\.json; inputs are never overwritten"),
+    Case("predict-plot-is-a-folder", setup=files({"plots/keep.txt": "x"}),
+         args=("predict", *SETTING, "--plot", "plots"), stderr=r"--plot plots: is a folder"),
+    Case("predict-plot-parent-is-a-file", setup=files({"afile.txt": "x"}),
+         args=("predict", *SETTING, "--plot", "afile.txt/p.png"),
+         stderr=r"afile\.txt is a file, not a folder"),
+    Case("predict-plot-in-unwritable-folder", setup=unwritable_folder,
+         args=("predict", *SETTING, "--plot", "{ro}/p.png"), stderr=r"cannot write in"),
+
+    # ---- anova: numbers that overflow, duplicates, the report over an input ----------
+    Case("anova-cell-1e300", setup=chen_table(edit=cell(3, "k1", "1e300")),
+         args=("anova", "t.csv", "--response", "k1"),
+         stderr=r"t\.csv: row 3 \(line 4\), column 'k1': '1e300' is too large; expected a "
+                r"number within \+-1e\+150"),
+    Case("anova-cell-1e150-is-computed", setup=chen_table(edit=cell(3, "k1", "1e150")),
+         args=("anova", "t.csv", "--response", "k1"), code=0, check=stdout_has("Response k1")),
+    Case("anova-coded-factor-1e100", setup=chen_table(edit=cell(3, "A", "1e100")),
+         args=("anova", "t.csv", "--response", "k1"),
+         stderr=r"row 3, factor A: the value 1e\+100 is beyond \+-1e\+12"),
+    Case("anova-factor-step-1e-300", setup=chen_table(),
+         args=("anova", "t.csv", "--response", "k1", "--factor", "A=n_rpm:550:1e-300",
+               *FACTORS[2:]),
+         stderr=r"factor A: step 1e-300 is outside 1e-12 to 1e\+12"),
+    Case("anova-duplicated-rows", setup=chen_table(edit=_dup_rows),
+         args=("anova", "t.csv", "--response", "k1"),
+         stderr=r"row 33 \(line 34\) repeats row 1 \(line 2\) in every column.*"
+                r"--allow-duplicate-rows"),
+    Case("anova-duplicated-rows-allowed", setup=chen_table(edit=lambda r: r.append(r[1])),
+         args=("anova", "t.csv", "--response", "k1", "--allow-duplicate-rows"), code=0,
+         check=stdout_has(r"Response k1")),
+    Case("anova-duplicate-run-id", setup=chen_table(edit=_dup_run_id),
+         args=("anova", "t.csv", "--response", "k1"),
+         stderr=r"rows 4 and 5 \(lines 5 and 6\) have the same run '4'; expected each run once"),
+    Case("anova-duplicate-column-name", setup=chen_table(edit=_dup_column),
+         args=("anova", "t.csv", "--response", "k1"),
+         stderr=r"names column 'k1' twice \(columns 5 and 6\)"),
+    Case("anova-report-over-its-table", setup=chen_table(),
+         args=("anova", "t.csv", "--response", "k1", "--report", "./t.csv"),
+         stderr=r"--report \./t\.csv: is the input t\.csv; inputs are never overwritten"),
+    Case("anova-report-over-a-compared-table",
+         setup=both(chen_table(), chen_table("p.csv")),
+         args=("anova", "t.csv", "--response", "k1", "--compare", "p.csv", "--report", "p.csv"),
+         stderr=r"--report p\.csv: is the input p\.csv"),
+    Case("anova-report-through-a-link-to-its-table",
+         setup=both(chen_table(), lambda w: os.symlink("t.csv", w / "r.html")),
+         args=("anova", "t.csv", "--response", "k1", "--report", "r.html"),
+         stderr=r"--report r\.html: is the input t\.csv"),
+    Case("anova-report-in-unwritable-folder", setup=both(chen_table(), unwritable_folder),
+         args=("anova", "t.csv", "--response", "k1", "--report", "{ro}/r.html"),
+         stderr=r"--report .*/r\.html: cannot write in"),
+    Case("anova-empty-file", setup=files({"t.csv": ""}),
+         args=("anova", "t.csv", "--response", "k1"),
+         stderr=r"t\.csv: the file is empty; expected a CSV table with a header row"),
+    Case("anova-header-only", setup=files({"t.csv": "run,A,B,C,k1\n"}),
+         args=("anova", "t.csv", "--response", "k1"), stderr=r"header but no rows"),
+    Case("anova-not-utf8", setup=files({"t.csv": b"run,A,k1\n1,0,\xff\xfe\n"}),
+         args=("anova", "t.csv", "--response", "k1"), stderr=r"not a readable CSV table"),
+    Case("anova-ragged-row", setup=chen_table(edit=_ragged),
+         args=("anova", "t.csv", "--response", "k1"), stderr=r"not a readable CSV table"),
+    Case("anova-alpha-nan", setup=chen_table(), args=("anova", "t.csv", "--response", "k1",
+                                                      "--alpha", "nan"),
+         stderr=r"alpha must be between 0 and 1, got nan"),
+
+    # ---- frames: no stale images, outputs checked first (item 12) --------------------
+    Case("frames-removes-the-earlier-extractions-images",
+         setup=both(copied(RUN42 / "front.avi"),
+                    earlier_export("out")),
+         args=("frames", "front.avi", "out", "--fps", "1200", "--range", "5:8", "-q"), code=0,
+         mutable=("out/*",),
+         check=listing("out", "frame_000005.png", "frame_000006.png", "frame_000007.png",
+                       "frame_000099.png", "frames.csv", "notes.txt")),
+    Case("frames-earlier-csv-names-a-file-outside",
+         setup=both(copied(RUN42 / "front.avi"),
+                    files({"precious.png": b"keep"}),
+                    earlier_export("out", listed_extra=("../precious.png",))),
+         args=("frames", "front.avi", "out", "--fps", "1200", "--range", "0:2", "-q"), code=0,
+         mutable=("out/*",), check=unchanged("precious.png", b"keep")),
+    Case("frames-fps-1e300", args=("frames", "{repo}/datasets/run42/front.avi", "out",
+                                   "--fps", "1e300"),
+         stderr=r"fps must be between 0\.1 and 1e\+07 frames/s .*got 1e\+300"),
+    Case("frames-fps-1e-300", args=("frames", "{repo}/datasets/run42/front.avi", "out",
+                                    "--fps", "1e-300"), stderr=r"fps must be between 0\.1"),
+    Case("frames-every-negative", args=("frames", "{repo}/datasets/run42/front.avi", "out",
+                                        "--every", "-3"), stderr=r"--every must be >= 1"),
+    Case("frames-out-is-its-source", setup=copied(RUN42 / "front.avi"),
+         args=("frames", "front.avi", "front.avi", "--fps", "1200"),
+         stderr=r"front\.avi: is the input front\.avi"),
+    Case("frames-out-parent-is-a-file", setup=files({"afile.txt": "x"}),
+         args=("frames", "{repo}/datasets/run42/front.avi", "afile.txt/out", "--fps", "1200"),
+         stderr=r"afile\.txt is a file, not a folder"),
+    Case("frames-out-in-unwritable-folder", setup=unwritable_folder,
+         args=("frames", "{repo}/datasets/run42/front.avi", "{ro}/out", "--fps", "1200"),
+         stderr=r"cannot write in"),
+
+    # ---- calibrate: finite scales, outputs checked first (items 8, 12) ---------------
+    Case("calibrate-ruler-scale-overflows",
+         args=("calibrate", "ruler", "--length-m", "1e300", "--from", "0,0", "--to", "1e-10,0",
+               "-o", "c.toml"),
+         stderr=r"= inf m per pixel; expected a scale between 1e-09 and 1000 m per pixel"),
+    Case("calibrate-ruler-span-overflows",
+         args=("calibrate", "ruler", "--length-m", "1", "--from=-1e308,0", "--to", "1e308,0",
+               "-o", "c.toml"), stderr=r"span .* overflows"),
+    Case("calibrate-output-is-a-folder", setup=files({"cal.toml/keep.txt": "x"}),
+         args=("calibrate", "ruler", *RULER, "-o", "cal.toml"), stderr=r"is a folder"),
+    Case("calibrate-output-parent-is-a-file", setup=files({"afile.txt": "x"}),
+         args=("calibrate", "ruler", *RULER, "-o", "afile.txt/c.toml"),
+         stderr=r"-o afile\.txt/c\.toml: .*afile\.txt is a file, not a folder"),
+    Case("calibrate-output-in-unwritable-folder", setup=unwritable_folder,
+         args=("calibrate", "ruler", *RULER, "-o", "{ro}/c.toml"), stderr=r"cannot write in"),
+    Case("calibrate-output-is-an-input", setup=files({"board.toml": b"not an image"}),
+         args=("calibrate", "checkerboard", "board.toml", "--pattern", "9x6", "--square-m",
+               "0.025", "-o", "board.toml"),
+         stderr=r"-o board\.toml: is the input board\.toml"),
+    Case("calibrate-length-nan", args=("calibrate", "ruler", "--length-m", "nan", *RULER[2:]),
+         stderr=r"--length-m must be a finite number > 0"),
+
+    # ---- scene.toml read by fit: physical ranges (item 8) ----------------------------
+    Case("scene-fps-1e-300", setup=run42_copy(scene=lambda t: t.replace("fps = 1200",
+                                                                        "fps = 1e-300", 1)),
+         args=("fit", "run", "-q"),
+         stderr=r"run/scene\.toml: views\.front\.fps must be between 0\.1 and 1e\+07 "
+                r"frames/s, got 1e-300"),
+    Case("scene-fps-1e300", setup=run42_copy(scene=lambda t: t.replace("fps = 1200",
+                                                                       "fps = 1e300", 1)),
+         args=("fit", "run", "-q"), stderr=r"views\.front\.fps must be between .*got 1e\+300"),
+    Case("scene-m-per-px-1e-300", setup=run42_copy(scene=scene_scale("1e-300")),
+         args=("fit", "run", "-q"),
+         stderr=r"views\.front\.m_per_px must be between 1e-09 and 1000 m per pixel"),
+    Case("scene-m-per-px-inf", setup=run42_copy(scene=scene_scale("inf")),
+         args=("fit", "run", "-q"), stderr=r"views\.front\.m_per_px must be a finite number"),
+    Case("scene-calibration-file-with-inf-scale",
+         setup=both(run42_copy(scene=lambda t: scene_scale("0.005")(t).replace(
+             "m_per_px = 0.005", 'calibration = "cal.toml"')),
+             files({"run/cal.toml": "schema = 1\n[scale]\nm_per_px = inf\n"})),
+         args=("fit", "run", "-q"),
+         stderr=r"views\.front\.calibration .*m_per_px must be a finite number, got inf"),
+]
+
+
+# ------------------------------------------------------------------ the runner
+
+def _tree(folder):
+    """Every file (sha256) and folder under ``folder``, hidden ones included."""
+    out = {}
+    for root, dirs, names in os.walk(folder):
+        for d in dirs:
+            out[os.path.relpath(os.path.join(root, d), folder)] = "<folder>"
+        for n in names:
+            p = os.path.join(root, n)
+            key = os.path.relpath(p, folder)
+            if os.path.islink(p):
+                out[key] = "-> " + os.readlink(p)
+            else:
+                with open(p, "rb") as f:
+                    out[key] = hashlib.sha256(f.read()).hexdigest()
+    return out
+
+
+def message_lines(stderr):
+    """The non-empty lines of stderr without argparse's usage block (``usage: ...`` and
+    its indented continuation lines, printed before argparse's own one-line error)."""
+    out, in_usage = [], False
+    for line in stderr.splitlines():
+        if line.startswith("usage:"):
+            in_usage = True
+            continue
+        if in_usage and line.startswith(" "):
+            continue
+        in_usage = False
+        if line.strip():
+            out.append(line)
+    return out
+
+
+@pytest.fixture
+def work(tmp_path):
+    w = tmp_path / "w"
+    w.mkdir()
+    yield w
+    for root, dirs, _ in os.walk(w):        # an unwritable folder made writable again
+        for d in dirs:
+            os.chmod(os.path.join(root, d), 0o755)
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
+def test_hostile_input(case, work):
+    places = {"repo": str(REPO), "w": str(work)}
+    if case.setup is not None:
+        places.update(case.setup(work) or {})
+    before = _tree(work)
+    res = run_vidtrack(*(a.format(**places) for a in case.args), cwd=work, timeout=120)
+    assert res.returncode == case.code, f"exit {res.returncode}:\n{res.stderr[-3000:]}"
+    assert "Traceback" not in res.stderr, res.stderr[-3000:]
+    after = _tree(work)
+    if case.code == 2:
+        lines = message_lines(res.stderr)
+        assert len(lines) == 1, f"expected one line on stderr, got:\n{res.stderr}"
+        assert re.search(case.stderr, lines[0]), lines[0]
+        assert after == before, "the refused command changed the work folder: " + repr(
+            sorted(set(after.items()) ^ set(before.items())))
+    else:
+        if case.stderr:
+            assert re.search(case.stderr, res.stderr), res.stderr
+        for path, digest in before.items():
+            if not any(fnmatch.fnmatch(path, m) for m in case.mutable):
+                assert after.get(path) == digest, f"input {path} changed or removed"
+    if case.check is not None:
+        case.check(work, res)
+
+
+def test_the_table_is_well_formed():
+    ids = [c.id for c in CASES]
+    assert len(ids) == len(set(ids)), "case ids must be unique"
+    for c in CASES:
+        assert c.code != 2 or c.stderr, f"{c.id}: a refusal needs the message regex"
+        re.compile(c.stderr)
