@@ -26,6 +26,19 @@ def test_unknown_command_is_bad_usage(vidtrack_cli):
     assert "invalid choice" in out.stderr
 
 
+@pytest.mark.parametrize("args, where", [
+    (("no-such-command",), "vidtrack"), (("fit", "--bogus"), "vidtrack fit"),
+    (("predict", "--n-rpm", "x"), "vidtrack predict"), (("anova",), "vidtrack anova"),
+    (("calibrate", "ruler", "--length-m"), "vidtrack calibrate ruler"),
+])
+def test_usage_errors_are_one_line(vidtrack_cli, args, where):
+    out = vidtrack_cli(*args)
+    assert out.returncode == 2
+    lines = [ln for ln in out.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith(f"{where}: error: "), out.stderr
+    assert f"(see '{where} --help')" in lines[0]
+
+
 def test_version(vidtrack_cli):
     import vidtrack
 

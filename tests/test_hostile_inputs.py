@@ -17,8 +17,7 @@ Add a case by adding a row to ``CASES``, not a test. A row is a :class:`Case`:
 - ``check(w, res)``: further assertions after the run.
 
 What every row asserts, on top of that: the exit code; no ``Traceback`` on stderr; for
-exit 2 exactly one non-empty line on stderr (argparse's usage block, which the parser
-prints before its own one-line error, is not counted) and the work folder exactly as
+exit 2 exactly one non-empty line on stderr (usage errors included) and the work folder exactly as
 the setup left it: no file changed, removed or added, no partial output, no temporary
 left behind (every file hashed before and after); for exit 0 every file the setup made
 is unchanged unless ``mutable`` names it.
@@ -492,19 +491,8 @@ def _tree(folder):
 
 
 def message_lines(stderr):
-    """The non-empty lines of stderr without argparse's usage block (``usage: ...`` and
-    its indented continuation lines, printed before argparse's own one-line error)."""
-    out, in_usage = [], False
-    for line in stderr.splitlines():
-        if line.startswith("usage:"):
-            in_usage = True
-            continue
-        if in_usage and line.startswith(" "):
-            continue
-        in_usage = False
-        if line.strip():
-            out.append(line)
-    return out
+    """The non-empty lines of stderr (a usage error is one line too, no usage block)."""
+    return [line for line in stderr.splitlines() if line.strip()]
 
 
 @pytest.fixture

@@ -131,11 +131,23 @@ def configure_logging(command=None, *, verbose=0, quiet=False):
     return handler
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one line for a usage error, as for any other bad input.
+
+    ``vidtrack fit: error: unrecognized arguments: --bogus (see 'vidtrack fit --help')``
+    instead of the usage block (up to 27 lines) and the message; exit code 2.
+    Subcommands' parsers are of this class too (argparse makes them of the parent's).
+    """
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
 def build_parser():
     """The top-level parser with every subcommand registered."""
     from vidtrack import __version__
 
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="vidtrack",
         description="High-speed footage of a thrown straw to drag-model coefficients "
                     "k1..k4 and their response-surface ANOVA.",
