@@ -40,7 +40,7 @@ Examples:
 
 
 def add_arguments(parser):
-    """Options of ``vidtrack anova`` (SPEC.md)."""
+    """Options of ``vidtrack anova`` (docs/analysis.md)."""
     parser.add_argument("table", metavar="TABLE.csv",
                         help="CSV table of runs with a header row, e.g. "
                              "datasets/published/chen2018_table2_ccd.csv")

@@ -18,7 +18,7 @@ The chain of the paper's section 4 and Fig. 6, run by :func:`predict`:
    (:mod:`vidtrack.predict.placement`; the paper's Fig. 6 flow chart is not legible in
    our copy, so the placement rule is ours and written down there).
 
-Every length is in m, in the world frame of SPEC.md (origin at the blade shaft, x outward,
+Every length is in m, in the world frame (docs/reference.md: origin at the blade shaft, x outward,
 y up, z along travel, z relative to the machine); the factors keep the paper's units.
 """
 
@@ -68,7 +68,7 @@ class Prediction:
                 f"({end}) m{more})")
 
     def to_dict(self):
-        """The ``vidtrack predict --json`` object (SPEC.md keys first)."""
+        """The ``vidtrack predict --json`` object (the fixed keys coefficients, release, trajectory first; docs/predict.md)."""
         return {
             "coefficients": self.coefficients.to_dict(),
             "release": self.release.to_dict(),

@@ -6,7 +6,7 @@ O1, for a given inlet geometry (:class:`InletGeometry`) and the predicted throw.
 paper's Fig. 6 flow chart is not legible in our copy, so the placement rule is ours and
 written down in :func:`place_device`.
 
-Every length is in m, in the world frame of SPEC.md (origin at the blade shaft, x outward,
+Every length is in m, in the world frame (docs/reference.md: origin at the blade shaft, x outward,
 y up).
 """
 

@@ -8,7 +8,7 @@ pointwise 95 % band by linearisation. Also the straw drag parameter Cp
 (:func:`drag_parameter`) and the flight helpers the device placement
 (:mod:`vidtrack.predict.placement`) shares.
 
-Every length is in m, in the world frame of SPEC.md (origin at the blade shaft, x outward,
+Every length is in m, in the world frame (docs/reference.md: origin at the blade shaft, x outward,
 y up, z along travel, z relative to the machine).
 """
 
@@ -201,7 +201,7 @@ def throw_trajectory(state, k, cp, *, v1_m_s, shaft_height_m, inlet_x_m=None,
     Parameters
     ----------
     state : sequence of 6 floats
-        ``(x0, y0, z0, vx0, vy0, vz0)``, m and m/s, vz0 absolute (SPEC.md).
+        ``(x0, y0, z0, vx0, vy0, vz0)``, m and m/s, vz0 the straw's absolute forward speed.
     k : sequence of 4 floats
     cp : float
         Drag parameter, s/m.
