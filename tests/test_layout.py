@@ -18,7 +18,7 @@ PACKAGES = ("vidtrack", "fits", "calibration")
 #: vidtrack's stages, lowest first: a module may import its own stage and lower ranks only.
 STAGE_RANK = {
     "vidtrack": 0, "vidtrack._moved": 0, "vidtrack.errors": 0, "vidtrack._atomic": 0,
-    "vidtrack._progress": 0,
+    "vidtrack._progress": 0, "vidtrack._lazy": 0,
     "vidtrack.scene": 1,
     "vidtrack.footage": 2,
     "vidtrack.track": 3,

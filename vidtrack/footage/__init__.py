@@ -14,6 +14,8 @@ module of the package (``vidtrack.footage.timebase``, say) does not load the oth
 None of them loads OpenCV before it reads or writes a frame.
 """
 
+from vidtrack._lazy import lazy_exports
+
 _EXPORTS = {
     "vidtrack.footage.base": ("FrameSource", "natural_key", "to_grey"),
     "vidtrack.footage.video": ("VideoSource",),
@@ -22,21 +24,6 @@ _EXPORTS = {
     "vidtrack.footage.sources": ("open_source",),
     "vidtrack.footage.export": ("export_frames", "FrameExport", "EXPORT_FORMATS"),
 }
-_MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
+__getattr__, __dir__, _NAMES = lazy_exports(__name__, _EXPORTS)
 
-__all__ = list(_MODULE_OF)
-
-
-def __getattr__(name):
-    module = _MODULE_OF.get(name)
-    if module is None:
-        raise AttributeError(f"module 'vidtrack.footage' has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_MODULE_OF))
+__all__ = _NAMES

@@ -18,6 +18,8 @@ its module on first use (PEP 562), so reading a scene (``load_scene``) loads nei
 writer nor the experiment file.
 """
 
+from vidtrack._lazy import lazy_exports
+
 _EXPORTS = {
     "vidtrack.scene.model": ("Scene", "ViewSpec", "Ruler", "Physics", "Straw", "SCENE_FILE",
                              "SCHEMA", "VIEW_AXES"),
@@ -27,25 +29,10 @@ _EXPORTS = {
                                        "EXPERIMENT_FILE"),
     "vidtrack.scene.folders": ("find_throw_dirs",),
 }
-_MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
+__getattr__, __dir__, _NAMES = lazy_exports(__name__, _EXPORTS)
 
 __all__ = [
     "Scene", "ViewSpec", "Ruler", "Physics", "Straw", "Experiment", "Factor",
     "load_scene", "parse_scene", "scene_to_toml", "write_scene", "load_experiment",
     "find_throw_dirs", "SCENE_FILE", "EXPERIMENT_FILE", "SCHEMA", "VIEW_AXES",
 ]
-
-
-def __getattr__(name):
-    module = _MODULE_OF.get(name)
-    if module is None:
-        raise AttributeError(f"module 'vidtrack.scene' has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_MODULE_OF))
