@@ -152,7 +152,7 @@ def triangulate(cameras, uvs, *, max_iter=50, tol=1e-10):
     r = _residuals(cameras, xa, obs_a, seen_a)
     cost = np.sum(r ** 2, axis=(1, 2))
     it = 0
-    for it in range(1, max_iter + 1):
+    for it in range(1, max_iter + 1):  # noqa: B007 (the count is reported)
         h = 1e-6 * np.maximum(1.0, np.abs(xa))
         J = np.empty((len(xa), m, 2, 3))
         for k in range(3):

@@ -7,15 +7,20 @@ notebook shows), so the two never disagree. JSON keeps full precision.
 
 import html
 import math
+import numbers
 
 
-def fmt_num(x, *, sig=6):
-    """A number rounded to ``sig`` significant digits; blank for None."""
+def fmt_num(x, *, sig=6, nonfinite=None):
+    """A number rounded to ``sig`` significant digits; blank for None; an integer as
+    it is; ``inf``/``-inf``/``nan``, or ``nonfinite`` when given, for a non-finite one."""
     if x is None:
         return ""
-    if isinstance(x, int):
-        return str(x)
+    if isinstance(x, numbers.Integral):
+        return str(int(x))
+    x = float(x)
     if not math.isfinite(x):
+        if nonfinite is not None:
+            return nonfinite
         return "inf" if x > 0 else ("-inf" if x < 0 else "nan")
     return f"{x:.{sig}g}"
 

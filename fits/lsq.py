@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize, special
 
-from fits._text import Report, Table, fmt_pm
+from fits._text import Report, Table, fmt_num, fmt_pm
 from fits.errmodel import ErrorModel, fit_error_model
 from fits.errors import ConvergenceError, InputError
 from fits.throw import G_STANDARD, MODELS, flight_drag, flight_y
@@ -345,14 +345,7 @@ class ThrowFit:
 
 def _num(x, sig):
     """``sig`` significant digits; '' for None, 'n/a' when not finite."""
-    if x is None:
-        return ""
-    if isinstance(x, (int, np.integer)):
-        return str(int(x))
-    x = float(x)
-    if not np.isfinite(x):
-        return "n/a"
-    return f"{x:.{sig}g}"
+    return fmt_num(x, sig=sig, nonfinite="n/a")
 
 
 def coefficient_rows(coefficients):

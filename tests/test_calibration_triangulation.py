@@ -17,7 +17,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import least_squares
-from scipy.spatial.transform import Rotation
 
 from calibration.errors import InputError
 from calibration.projective import ProjectiveCamera

@@ -442,7 +442,8 @@ class RsmFit:
         return self.predict_coded(coded)
 
     def to_dict(self):
-        """The JSON object of ``vidtrack anova --json`` (docs/analysis.md: the fixed keys, then more)."""
+        """The JSON object of ``vidtrack anova --json`` (docs/analysis.md: the fixed keys,
+        then more)."""
         anova = {k: (v.to_dict() if v is not None else None) for k, v in self.anova.items()}
         return {
             "response": self.response,

@@ -68,7 +68,8 @@ class Prediction:
                 f"({end}) m{more})")
 
     def to_dict(self):
-        """The ``vidtrack predict --json`` object (the fixed keys coefficients, release, trajectory first; docs/predict.md)."""
+        """The ``vidtrack predict --json`` object (the fixed keys coefficients, release,
+        trajectory first; docs/predict.md)."""
         return {
             "coefficients": self.coefficients.to_dict(),
             "release": self.release.to_dict(),

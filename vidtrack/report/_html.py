@@ -5,7 +5,6 @@ import html
 import io
 from datetime import datetime, timezone
 
-import numpy as np
 
 CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,sans-serif;margin:2em auto;max-width:1100px;
@@ -27,14 +26,9 @@ def esc(x):
 
 def num(x, sig=6):
     """A number with ``sig`` significant digits; '' for None, 'n/a' if not finite."""
-    if x is None:
-        return ""
-    if isinstance(x, (int, np.integer)):
-        return str(int(x))
-    x = float(x)
-    if not np.isfinite(x):
-        return "n/a"
-    return f"{x:.{sig}g}"
+    from fits._text import fmt_num
+
+    return fmt_num(x, sig=sig, nonfinite="n/a")
 
 
 def table(headers, rows, *, left=1, classes=None):

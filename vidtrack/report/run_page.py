@@ -185,10 +185,11 @@ def render_html(record, *, fit=None, world=None, views=None, tracks_img=None, cu
     summary = record.get("world") or {}
     if "rotation" in summary and world is not None and "frame" in world:
         parts.append("<h2>Calibrated cameras</h2>")
-        parts.append(f"<p>Median reprojection error {_html.num(summary['median_reprojection_px'], 3)}"
-                     f" px over the views; {summary['flagged']} of {summary['rows']} frames "
-                     f"flagged (an error beyond {_html.num(summary['flag_threshold_px'], 3)} px) "
-                     f"and not fitted. The throw's frame: Y up, X from "
+        med = _html.num(summary["median_reprojection_px"], 3)
+        limit = _html.num(summary["flag_threshold_px"], 3)
+        parts.append(f"<p>Median reprojection error {med} px over the views; "
+                     f"{summary['flagged']} of {summary['rows']} frames flagged (an error "
+                     f"beyond {limit} px) and not fitted. The throw's frame: Y up, X from "
                      f"{_html.esc(summary['forward_from'])}.</p>")
         parts.append(_html.table(("view", "frames", "median reprojection (px)",
                                   "clock offset (ms)", "how"),

@@ -50,9 +50,10 @@ class CalibratedWorld:
     ----------
     data : pandas.DataFrame
         One row per frame of the reference view that two or more views saw: ``frame``
-        (the reference view's frame), ``t_s`` (s from the first triangulated frame), ``x_m, y_m, z_m`` (the throw's frame; NaN where
-        flagged), ``views`` (how many saw it), ``reprojection_px_<view>`` (each view's
-        reprojection distance, NaN where it did not see the point), ``flags``
+        (the reference view's frame), ``t_s`` (s from the first triangulated frame),
+        ``x_m, y_m, z_m`` (the throw's frame; NaN where flagged), ``views`` (how many
+        saw it), ``reprojection_px_<view>`` (each view's reprojection distance, NaN where
+        it did not see the point), ``flags``
         (:data:`REPROJECTION`), and ``X_m, Y_m, Z_m`` (the calibration's frame, unflagged
         or not).
     reference : str
