@@ -17,12 +17,13 @@ logging.getLogger(__name__).addHandler(logging.NullHandler())
 _EXPORTS = {
     "calibration.errors": ("InputError",),
     "calibration.scale": ("Scale", "ruler_scale", "given_scale", "pixel_point"),
-    "calibration.camera": (
-        "CameraCalibration", "CalibrationFile", "calibrate_checkerboard",
-        "checkerboard_calibration", "compact_toml", "find_board", "board_points",
-        "plane_scale", "undistort_points", "distort_points", "calibration_to_toml",
-        "calibration_to_dict", "load_calibration", "parse_calibration",
-        "read_calibration_images", "parse_pattern"),
+    "calibration.camera": ("CameraCalibration", "undistort_points", "distort_points"),
+    "calibration.checkerboard": (
+        "calibrate_checkerboard", "checkerboard_calibration", "find_board", "board_points",
+        "plane_scale", "read_calibration_images", "parse_pattern"),
+    "calibration.calibration_file": (
+        "CalibrationFile", "compact_toml", "calibration_to_toml", "calibration_to_dict",
+        "load_calibration", "parse_calibration"),
     "calibration.views": ("ViewMapping", "view_mapping", "pixel_to_world", "world_to_pixel",
                           "parse_axes"),
     "calibration.dlt": ("DLT", "estimate_dlt", "project", "triangulate",

@@ -8,7 +8,8 @@ Modules (import what you use; ``import fits`` stays light):
   ``fits.throw.printed.printed_position`` (the printed forms, for comparison);
   ``fits.throw.mp.position_mp`` (50-digit truth).
 - ``fits.blade``: the slide along the blade and the release (eqs. 1-10).
-- ``fits.lsq``: ``fit_throw``, ``compare_models`` (least squares of a world track).
+- ``fits.lsq``: ``fit_throw``, ``compare_models`` (least squares of a world track); the
+  ``ThrowFit`` they return is defined in ``fits.lsq_results``.
 - ``fits.rsm``: ``Factor``, ``fit_rsm``, ``read_table`` (response surfaces, Table 3).
 - ``fits.orthogonal``: ``fit_orthogonal`` (Hou 2019 Table 4).
 - ``fits.compare``: ``compare``, ``read_published`` (side by side with a paper).

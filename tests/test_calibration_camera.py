@@ -1,4 +1,4 @@
-"""calibration.camera against checkerboard images rendered through a known camera.
+"""calibration.camera, .checkerboard and .calibration_file against rendered checkerboards.
 
 Truth: tests/checkerboard_render.py renders the board through intrinsics and
 distortion we chose (TRUE_K, TRUE_D) from known poses; OpenCV's projectPoints gives
@@ -14,17 +14,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from calibration import InputError
-from calibration.camera import (
-    CameraCalibration,
+from calibration.calibration_file import calibration_to_toml, load_calibration
+from calibration.camera import CameraCalibration, distort_points, undistort_points
+from calibration.checkerboard import (
     calibrate_checkerboard,
-    calibration_to_toml,
     checkerboard_calibration,
-    distort_points,
     find_board,
-    load_calibration,
     parse_pattern,
     plane_scale,
-    undistort_points,
 )
 from calibration.scale import ruler_scale
 from checkerboard_render import (

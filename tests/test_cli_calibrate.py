@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from calibration.camera import load_calibration
+from calibration.calibration_file import load_calibration
 from checkerboard_render import (
     PATTERN,
     PLANE_POSE,

@@ -58,7 +58,7 @@ def _positive(option):
 
 
 def _pattern(text):
-    from calibration.camera import parse_pattern
+    from calibration.checkerboard import parse_pattern
 
     return parse_pattern(text)
 
@@ -125,7 +125,7 @@ def _check_output(path, inputs):
 
 
 def _run_ruler(args):
-    from calibration.camera import calibration_to_toml
+    from calibration.calibration_file import calibration_to_toml
     from calibration.scale import ruler_scale
     from vidtrack._atomic import write_text
 
@@ -145,7 +145,8 @@ def _pt(p):
 
 
 def _run_checkerboard(args):
-    from calibration.camera import calibration_to_toml, checkerboard_calibration
+    from calibration.calibration_file import calibration_to_toml
+    from calibration.checkerboard import checkerboard_calibration
     from vidtrack._atomic import write_text
     from vidtrack._progress import progress
 

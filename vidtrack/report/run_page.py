@@ -16,7 +16,7 @@ AXES = ("x", "y", "z")
 
 def _k_rows(record):
     # the same rows as ThrowFit.summary() (one formatting of the k table)
-    from fits.lsq import coefficient_rows
+    from fits.lsq_results import coefficient_rows
 
     return coefficient_rows({k: record["coefficients"][k] for k in K_NAMES})
 

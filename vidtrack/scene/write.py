@@ -56,7 +56,7 @@ def scene_to_toml(scene_dict):
     data = _plain(scene_dict)
     parse_scene(data, folder=None, label="scene (to write)")
     ordered = {k: data[k] for k in _TOP_KEYS if k in data}
-    from calibration.camera import compact_toml
+    from calibration.calibration_file import compact_toml
 
     return "# vidtrack scene, schema 1 (docs/scene.md)\n" + compact_toml(tomli_w.dumps(ordered))
 
