@@ -261,10 +261,350 @@ def test_a_fit_that_does_not_converge_says_why_and_leaves_no_fit(vidtrack_cli, t
                  calibration=tf.calibration)
     res = fit(vidtrack_cli, run)
     assert res.returncode == 2, res.stderr
-    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    # the edited tracks.h5 is used as edited, and said so in a note
+    assert "tracks.h5 changed since" in res.stderr and "using it as edited" in res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip() and ": note: " not in ln]
     assert len(lines) == 1 and "Traceback" not in res.stderr
     assert "did not converge" in lines[0] and "the y fit" in lines[0]
     assert "points over t =" in lines[0]
     for name in ("fit.json", "report.md", "report.html"):
         assert not (out / name).exists()
     assert (out / "tracks.h5").exists()
+
+
+# ---------------------------------------------------------------- hostile inputs
+# ---------------------------------------------------------------- helpers
+
+RUN42 = Path(__file__).resolve().parents[1] / "datasets" / "run42"
+
+
+def run42_copy(dest, scene=None):
+    """datasets/run42 without its outputs; ``scene(text)`` edits its scene.toml."""
+    import shutil
+
+    shutil.copytree(RUN42, dest, ignore=shutil.ignore_patterns("vidtrack"))
+    if scene is not None:
+        path = dest / "scene.toml"
+        path.write_text(scene(path.read_text()))
+    return dest
+
+
+def in_view(view, key, value):
+    """A scene.toml edit: ``key = value`` in ``[views.VIEW]`` (replacing the key)."""
+    def edit(text):
+        head = f"[views.{view}]\n"
+        start = text.index(head) + len(head)
+        end = text.find("\n[", start)
+        body = text[start:end]
+        lines = [ln for ln in body.split("\n") if not ln.startswith(f"{key} =")]
+        return text[:start] + f"{key} = {value}\n" + "\n".join(lines) + text[end:]
+    return edit
+
+
+def one_line(res):
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+    return lines[0]
+
+
+def outputs(run):
+    out = run / "vidtrack"
+    return sorted(p.name for p in out.iterdir()) if out.is_dir() else []
+
+
+# ---------------------------------------------------------------- cross-checks (item 3)
+
+WRONG_INPUTS = {
+    # the top camera's rate given as 600 instead of 1200: k4 came out 2.75 for 21.3
+    "top-fps-halved": lambda t: in_view("top", "fps", "600")(t),
+    "views-swapped": lambda t: t.replace('source = "front.avi"', 'source = "@"').replace(
+        'source = "top.avi"', 'source = "front.avi"').replace('source = "@"',
+                                                              'source = "top.avi"'),
+}
+
+
+@pytest.mark.parametrize("name", sorted(WRONG_INPUTS))
+def test_inputs_that_disagree_stop_the_fit_unless_accepted(vidtrack_cli, tmp_path, name):
+    run = run42_copy(tmp_path / "run", WRONG_INPUTS[name])
+    before = digest_tree(run)
+    res = fit(vidtrack_cli, run)
+    assert res.returncode == 2, res.stderr
+    line = one_line(res)
+    assert "the inputs disagree" in line and "--accept-disagreement" in line
+    assert "the views disagree on the X they both see" in line
+    if name == "top-fps-halved":
+        assert "views.top.fps = 600" in line and "0.5 times" in line
+    assert not (run / "vidtrack" / "fit.json").exists()
+    assert not (run / "vidtrack" / "report.html").exists()
+    # accepted: fitted, the warning on the terminal and in fit.json
+    res = fit(vidtrack_cli, run, "--accept-disagreement", "--json")
+    assert res.returncode == 0, res.stderr
+    assert "warning:" in res.stderr and "accepted with --accept-disagreement" in res.stderr
+    record = json.loads(res.stdout)
+    assert {c["check"] for c in record["checks"]} >= {"x_disagreement"}
+    assert any("inputs disagree" in n for n in record["notes"])
+    # and refused again without the option (the check is made on every run)
+    assert fit(vidtrack_cli, run).returncode == 2
+    assert not (run / "vidtrack" / "fit.json").exists()
+    assert digest_tree(run) == before
+
+
+def test_good_runs_pass_the_cross_checks_with_a_margin(vidtrack_cli, tmp_path, two_view_run):
+    """run42 and a rendered run: no finding, and each measure far inside its limit."""
+    from vidtrack.run.checks import SPEED_RATIO_TOL, X_RMS_MAX_PX
+
+    for run in (run42_copy(tmp_path / "run42"), two_view_run):
+        res = fit(vidtrack_cli, run, "--json")
+        assert res.returncode == 0, res.stderr
+        record = json.loads(res.stdout)
+        assert record["checks"] == [] and "warning" not in res.stderr
+        assert record["world"]["x_rms_px"] < X_RMS_MAX_PX / 5
+    # the speed ratio and accelerations, measured on the rendered run's tracks
+    from vidtrack.run.checks import mean_accelerations, speed_ratio
+    from vidtrack.run.tracks_file import read_tracks
+    from vidtrack.scene import load_scene
+
+    tf = read_tracks(two_view_run / "vidtrack" / "tracks.h5")
+    scene = load_scene(two_view_run)
+    sr = speed_ratio(tf.world, tf.tracks, {n: v.mapping() for n, v in scene.views.items()})
+    assert abs(sr["ratio"] - 1) < SPEED_RATIO_TOL / 5
+    acc = mean_accelerations(tf.world)
+    assert 1.0 < -acc["y"][0] / 9.80665 < 5.0
+
+
+# ---------------------------------------------------------------- the cache (item 4)
+
+def _k1(run):
+    return json.loads((run / "vidtrack" / "fit.json").read_text())["coefficients"]["k1"]
+
+
+@pytest.fixture(scope="module")
+def fitted_run42(tmp_path_factory):
+    from conftest import run_vidtrack
+
+    run = run42_copy(tmp_path_factory.mktemp("cache") / "run")
+    assert run_vidtrack("fit", run, "-q").returncode == 0
+    return run
+
+
+TAMPERING = {
+    "k1-edited": lambda out: (out / "fit.json").write_text(
+        (out / "fit.json").read_text().replace('"value": ', '"value": 999.0, "was": ', 1)),
+    "fit-json-truncated": lambda out: (out / "fit.json").write_bytes(
+        (out / "fit.json").read_bytes()[:100]),
+    "fit-json-empty": lambda out: (out / "fit.json").write_bytes(b""),
+    "stages-json-a-list": lambda out: (out / "stages.json").write_text("[]"),
+    "stages-json-not-json": lambda out: (out / "stages.json").write_text("{"),
+    "tracks-h5-bit-flipped": lambda out: _flip(out / "tracks.h5"),
+    "tracks-h5-truncated": lambda out: (out / "tracks.h5").write_bytes(
+        (out / "tracks.h5").read_bytes()[:5000]),
+    "world-csv-edited": lambda out: (out / "world.csv").write_text("t_s,x_m\n0,1\n"),
+    "report-removed": lambda out: (out / "report.html").unlink(),
+}
+
+
+def _flip(path):
+    """One bit flipped in every dataset's data (the numbers, not the layout)."""
+    import h5py
+
+    with h5py.File(path, "r") as h:
+        offsets = [h["world/y_m"].id.get_chunk_info(0).byte_offset]
+    data = bytearray(path.read_bytes())
+    for off in offsets:
+        data[off + 20] ^= 0x08
+    path.write_bytes(bytes(data))
+
+
+@pytest.mark.parametrize("name", sorted(TAMPERING))
+def test_a_cached_stage_is_reused_only_when_its_files_are_the_ones_recorded(
+        vidtrack_cli, tmp_path, fitted_run42, name):
+    import shutil
+
+    run = tmp_path / "run"
+    shutil.copytree(fitted_run42, run)
+    truth = _k1(run)
+    before = digest_tree(run)
+    TAMPERING[name](run / "vidtrack")
+    res = fit(vidtrack_cli, run, "--json")
+    assert res.returncode == 0, res.stderr
+    assert "Traceback" not in res.stderr and "internal error" not in res.stderr
+    assert ": note: " in res.stderr                         # said, not silently redone
+    record = json.loads(res.stdout)
+    # this run's result (tracked again, it may differ in the last digits)
+    assert record["coefficients"]["k1"]["value"] == pytest.approx(truth["value"], rel=1e-6)
+    if name.startswith("world-csv"):                         # the table, from tracks.h5
+        assert (run / "vidtrack" / "world.csv").read_bytes() == \
+            (fitted_run42 / "vidtrack" / "world.csv").read_bytes()
+    else:                                                    # the fit, computed again
+        assert record.get("stages_reused") != ["tracks", "fit"]
+    assert _k1(run)["value"] == pytest.approx(truth["value"], rel=1e-6)   # right again
+    assert (run / "vidtrack" / "report.html").is_file()
+    again = fit(vidtrack_cli, run, "--json")                # and now reused, quietly
+    assert again.returncode == 0 and ": note: " not in again.stderr
+    assert json.loads(again.stdout)["stages_reused"] == ["tracks", "fit"]
+    assert digest_tree(run) == before                       # inputs untouched
+
+
+def test_a_reused_fit_says_so_and_when(vidtrack_cli, fitted_run42):
+    res = fit(vidtrack_cli, fitted_run42)
+    assert res.returncode == 0, res.stderr
+    fitted_at = json.loads((fitted_run42 / "vidtrack" / "fit.json").read_text())["fitted_at"]
+    assert f"run42: nothing changed: reused the fit of {fitted_at}" in res.stdout
+
+
+def test_a_track_edited_through_hdf5_is_used_as_edited(vidtrack_cli, tmp_path, fitted_run42):
+    """tracks.h5 changed with h5py (frames flagged by hand) reads back whole: its tracks
+    are used and refitted, with a note; the tables follow the edit."""
+    import shutil
+
+    import h5py
+    import pandas as pd
+
+    run = tmp_path / "run"
+    shutil.copytree(fitted_run42, run)
+    out = run / "vidtrack"
+    with h5py.File(out / "tracks.h5", "r+") as h:
+        flags = h["front/flags"][()]
+        flags[100:200] |= 64                                 # OUTLIER by hand
+        h["front/flags"][...] = flags
+    res = fit(vidtrack_cli, run, "--json")
+    assert res.returncode == 0, res.stderr
+    assert "using it as edited" in res.stderr
+    record = json.loads(res.stdout)
+    assert record["stages_reused"] == ["tracks"]
+    tracks = pd.read_csv(out / "tracks.csv")
+    front = tracks[tracks.view == "front"]
+    assert (front["flags"].to_numpy()[100:200] & 64).all()
+
+
+# ---------------------------------------------------------------- stale outputs (item 5)
+
+def test_a_refit_with_other_options_leaves_no_report_of_the_old_fit(vidtrack_cli, tmp_path):
+    run = run42_copy(tmp_path / "run")
+    assert fit(vidtrack_cli, run, "-q").returncode == 0
+    out = run / "vidtrack"
+    assert "quadratic" in (out / "report.md").read_text()
+    res = fit(vidtrack_cli, run, "--model", "linear", "--no-report")
+    assert res.returncode == 0, res.stderr
+    assert json.loads((out / "fit.json").read_text())["model"] == "linear-drag"
+    assert not (out / "report.md").exists() and not (out / "report.html").exists()
+    # a report asked for again is rebuilt; a deleted report is rebuilt on rerun
+    assert fit(vidtrack_cli, run, "--model", "linear").returncode == 0
+    assert "linear" in (out / "report.md").read_text()
+    (out / "report.html").unlink()
+    res = fit(vidtrack_cli, run, "--model", "linear")
+    assert res.returncode == 0 and (out / "report.html").is_file()
+    assert "report.html" in res.stderr and "missing" in res.stderr
+    # --no-report with the fit unchanged keeps the report that shows it
+    assert fit(vidtrack_cli, run, "--model", "linear", "--no-report").returncode == 0
+    assert (out / "report.html").is_file()
+
+
+def test_fit_json_is_written_before_the_reports(vidtrack_cli, tmp_path):
+    run = run42_copy(tmp_path / "run")
+    assert fit(vidtrack_cli, run, "-q").returncode == 0
+    out = run / "vidtrack"
+    fit_ns = (out / "fit.json").stat().st_mtime_ns
+    assert fit_ns <= (out / "report.md").stat().st_mtime_ns
+    assert fit_ns <= (out / "report.html").stat().st_mtime_ns
+    stages = json.loads((out / "stages.json").read_text())
+    assert stages["schema"] == 2
+    assert set(stages["fit"]["files"]) == {"fit.json", "report.md", "report.html"}
+
+
+def test_a_failed_rerun_leaves_no_output_that_looks_current(vidtrack_cli, tmp_path):
+    run = run42_copy(tmp_path / "run")
+    assert fit(vidtrack_cli, run, "-q").returncode == 0
+    top = run / "top.avi"
+    top.write_bytes(top.read_bytes()[:top.stat().st_size // 2])   # footage now truncated
+    before = digest_tree(run)
+    res = fit(vidtrack_cli, run)
+    assert res.returncode == 2, res.stderr
+    line = one_line(res)
+    assert "view top" in line and "could not be decoded" in line
+    assert outputs(run) in ([], ["stages.json"])
+    assert digest_tree(run) == before
+
+
+def test_a_failed_throw_leaves_no_mean_and_names_run_throw_and_view(vidtrack_cli, tmp_path):
+    run = synth(vidtrack_cli, tmp_path / "run", "--throws", "2", "--flight-s", "0.15")
+    assert fit(vidtrack_cli, run, "-q").returncode == 0
+    assert (run / "vidtrack" / "fit.json").is_file()
+    top = run / "throws" / "02" / "top.avi"
+    top.write_bytes(top.read_bytes()[:top.stat().st_size // 2])
+    res = fit(vidtrack_cli, run)
+    assert res.returncode == 2, res.stderr
+    line = one_line(res)
+    assert "run 'run'" in line and "throw 02" in line and "view top" in line
+    assert line.count("throw 02") == 1                   # said once
+    for name in ("fit.json", "report.md", "report.html"):
+        assert not (run / "vidtrack" / name).exists(), name          # the run's mean
+        assert not (run / "vidtrack" / "02" / name).exists(), name   # the failed throw
+    assert not (run / "vidtrack" / "02" / "tracks.h5").exists()
+    assert (run / "vidtrack" / "01" / "fit.json").is_file()          # a finished throw
+
+
+# ---------------------------------------------------------------- found early (items 6, 7, 10, 12)
+
+def test_a_fifo_as_footage_is_refused_without_reading_it(vidtrack_cli, tmp_path):
+    run = run42_copy(tmp_path / "run")
+    (run / "top.avi").unlink()
+    os.mkfifo(run / "top.avi")
+    t0 = time.monotonic()
+    res = vidtrack_cli("fit", run, timeout=60)         # the old code blocked here
+    assert res.returncode == 2, res.stderr
+    assert "views.top.source" in one_line(res) and "is a FIFO" in one_line(res)
+    assert time.monotonic() - t0 < 30
+    assert not (run / "vidtrack").exists()
+
+
+def test_a_frame_range_past_the_end_is_said_on_the_terminal(vidtrack_cli, tmp_path):
+    run = run42_copy(tmp_path / "run", in_view("top", "frames", "[0, 5000]"))
+    res = fit(vidtrack_cli, run, "--json")
+    assert res.returncode == 0, res.stderr
+    assert "view top: frames [0, 5000] runs past the last frame; using [0, 372]" in res.stderr
+    assert any("runs past the last frame" in n for n in json.loads(res.stdout)["notes"])
+
+
+def test_an_unreachable_scheduler_is_bad_input_said_in_one_line(vidtrack_cli, tmp_path):
+    import socket
+
+    with socket.socket() as s:                       # a port nothing listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    run = run42_copy(tmp_path / "run")
+    t0 = time.monotonic()
+    res = fit(vidtrack_cli, run, "--scheduler", f"tcp://127.0.0.1:{port}")
+    assert res.returncode == 2, res.stderr
+    assert f"--scheduler tcp://127.0.0.1:{port}: no dask scheduler answered" in one_line(res)
+    assert time.monotonic() - t0 < 25
+    assert not (run / "vidtrack").exists()
+
+
+def test_sigterm_to_the_command_alone_ends_it_and_its_worker_quietly(tmp_path):
+    """SIGTERM to the command only (not its process group): it stops as on Ctrl-C (exit
+    130, the true message), the worker ends without a word, nothing half-written."""
+    run = run42_copy(tmp_path / "run")
+    env = dict(os.environ, MPLBACKEND="Agg")
+    proc = subprocess.Popen([sys.executable, "-m", "vidtrack", "fit", str(run)], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    deadline = time.monotonic() + 30
+    while (time.monotonic() < deadline
+           and not [c for c in _session_members(proc.pid) if "spawn_main" in c]):
+        time.sleep(0.05)
+    time.sleep(0.5)                                  # the worker is tracking by now
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    time.sleep(0.5)
+    assert "Traceback" not in err and "Error" not in err, err
+    assert proc.returncode in (0, 130), err
+    if proc.returncode == 130:
+        assert "run the same command again" in err
+        assert "no partial output was kept" not in err
+    deadline = time.monotonic() + 10
+    while _session_members(proc.pid) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert _session_members(proc.pid) == [], "a process outlived the command"
+    assert not [p for p in (run / "vidtrack").rglob("*") if p.name.endswith(".part")] \
+        if (run / "vidtrack").exists() else True

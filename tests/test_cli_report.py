@@ -3,6 +3,7 @@
 known quadratic), fitted and analysed by the real CLI."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -54,3 +55,77 @@ def test_report_fits_every_run_and_analyses_the_table(vidtrack_cli, tmp_path):
     assert np.isfinite(anova["k1"]["anova"]["pure_error"]["ss"])
     assert (out / "report.html").read_text().count("<img") >= 4
     assert "k1" in res.stdout and "Regression" in res.stdout
+
+
+# ---------------------------------------------------------------- checks and stale outputs
+
+RUN42 = Path(__file__).resolve().parents[1] / "datasets" / "run42"
+OLD_OUTPUTS = ("coefficients.csv", "anova.json", "report.html", "notes.txt")
+
+
+def _experiment(root, top_fps_b=None):
+    """Two copies of run42 (b's top fps optionally wrong) and a one-factor experiment."""
+    import shutil
+
+    for r in ("a", "b"):
+        shutil.copytree(RUN42, root / "runs" / r, ignore=shutil.ignore_patterns("vidtrack"))
+    if top_fps_b:
+        scene = root / "runs" / "b" / "scene.toml"
+        text = scene.read_text()
+        head = text.index("[views.top]")
+        scene.write_text(text[:head] + text[head:].replace("fps = 1200", f"fps = {top_fps_b}",
+                                                           1))
+    (root / "experiment.toml").write_text(
+        'schema = 1\ndesign = "ccd"\nresponses = ["k1", "k2", "k3", "k4"]\nruns = "runs/*"\n'
+        '[factors.A]\nname = "n_rpm"\ncentre = 550\nstep = 100\n')
+    return root
+
+
+def _outside_outputs(root):
+    """sha256 of every file not under a vidtrack/ folder (inputs must never change)."""
+    import hashlib
+
+    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(root.rglob("*"))
+            if p.is_file() and "vidtrack" not in p.relative_to(root).parts}
+
+
+def test_a_failed_report_leaves_no_report_of_before(vidtrack_cli, tmp_path):
+    """An earlier report's files stand for runs that are now fitted again: a run failing
+    (its footage truncated) must not leave them looking current. The error names the
+    run and the view."""
+    exp = _experiment(tmp_path / "exp")
+    out = exp / "vidtrack"
+    out.mkdir()
+    for name in OLD_OUTPUTS:
+        (out / name).write_text("from an earlier report\n")
+    top = exp / "runs" / "b" / "top.avi"
+    top.write_bytes(top.read_bytes()[:top.stat().st_size // 2])
+    before = _outside_outputs(exp)
+    res = vidtrack_cli("report", exp)
+    assert res.returncode == 2, res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+    assert "runs/b" in lines[0] and "view top" in lines[0]
+    assert "could not be decoded" in lines[0]
+    for name in OLD_OUTPUTS:
+        assert not (out / name).exists(), name
+    assert (exp / "runs" / "a" / "vidtrack" / "fit.json").is_file()   # a run that fitted
+    assert _outside_outputs(exp) == before
+
+
+def test_report_stops_on_inputs_that_disagree_unless_accepted(vidtrack_cli, tmp_path):
+    exp = _experiment(tmp_path / "exp", top_fps_b=600)
+    before = _outside_outputs(exp)
+    res = vidtrack_cli("report", exp)
+    assert res.returncode == 2, res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1, res.stderr
+    assert "runs/b" in lines[0] and "the inputs disagree" in lines[0]
+    assert "--accept-disagreement" in lines[0]
+    assert not (exp / "runs" / "b" / "vidtrack" / "fit.json").exists()
+    res = vidtrack_cli("report", exp, "--accept-disagreement")
+    # fitted, with the warning on the terminal (two runs are too few for the ANOVA)
+    assert "accepted with --accept-disagreement" in res.stderr, res.stderr
+    assert (exp / "runs" / "b" / "vidtrack" / "fit.json").is_file()
+    assert _outside_outputs(exp) == before

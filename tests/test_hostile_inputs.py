@@ -471,6 +471,139 @@ CASES = [
 ]
 
 
+# ------------------------------------------------------------------ fit and report
+# Every row here is refused before any footage is tracked (each runs in well under a
+# second). Cases that need a fit, a FIFO (hashing would block on it) or a timeout are
+# in tests/test_cli_fit.py and tests/test_cli_report.py.
+
+#: experiment.toml of a two-run experiment (the runs are copies of run42); ``{name}``
+#: is factor A's name.
+EXPERIMENT = ('schema = 1\ndesign = "{design}"\nresponses = {responses}\nruns = "runs/*"\n'
+              '[factors.A]\nname = "{name}"\ncentre = 550\nstep = 100\n')
+
+
+def experiment(name="n_rpm", design="ccd", responses='["k1", "k2", "k3", "k4"]',
+               scene=None):
+    """A setup: ``exp/`` with experiment.toml and two copies of run42 in ``exp/runs/``
+    (the second one's scene.toml edited by ``scene(text)``)."""
+    def setup(w):
+        for i, r in enumerate(("a", "b")):
+            run42_copy(f"exp/runs/{r}", drop=("vidtrack", "truth.json",
+                                               "vidtrack-synth.toml"),
+                       scene=scene if i == 1 else None)(w)
+        (w / "exp" / "experiment.toml").write_text(
+            EXPERIMENT.format(name=name, design=design, responses=responses))
+    return setup
+
+
+def unwritable_run(w):
+    """run42 copied to ``run`` and made read-only (mode 555); skips when this process
+    writes there anyway (root)."""
+    run42_copy()(w)
+    run = w / "run"
+    run.chmod(0o555)
+    try:
+        (run / ".probe").write_bytes(b"")
+    except OSError:
+        return {}
+    (run / ".probe").unlink()
+    run.chmod(0o755)
+    pytest.skip("this process writes into a mode-555 folder (root): no read-only run folder")
+
+
+def top_links_to_front(w):
+    """The top view's footage is a link to the front view's."""
+    (w / "run" / "top.avi").unlink()
+    os.symlink("front.avi", w / "run" / "top.avi")
+
+
+def top_source(value):
+    def edit(text):
+        return text.replace('source = "top.avi"', f'source = "{value}"', 1)
+    return edit
+
+
+CASES += [
+    # ---- the same footage for two views: a cross-check, before any tracking (item 3) ---
+    Case("fit-same-footage-for-both-views",
+         setup=run42_copy(scene=top_source("front.avi")), args=("fit", "run"),
+         stderr=r"run 'run42' \(run\): the inputs disagree: views front and top both read "
+                r"run/front\.avi: .*--accept-disagreement"),
+    Case("fit-same-footage-through-a-link",
+         setup=both(run42_copy(), top_links_to_front), args=("fit", "run"),
+         stderr=r"views front and top both read .*--accept-disagreement"),
+    # ---- sources that are not files or folders: refused before they are read (item 10)
+    Case("fit-source-is-a-character-device",
+         setup=run42_copy(scene=top_source("/dev/zero")), args=("fit", "run"),
+         stderr=r"run 'run42' \(run\), view top: views\.top\.source: /dev/zero is a "
+                r"character device; expected a video file, an image folder or a \.cine"),
+    # ---- checked at open time, not after tracking (item 7) ----------------------------
+    Case("fit-sync-frame-past-the-end",
+         setup=run42_copy(scene=scene_value("sync_frame", "900", "top")), args=("fit", "run"),
+         stderr=r"run 'run42' \(run\), view top: views\.top\.sync_frame = 900 is not among "
+                r"its 372 frames, 0\.\.371 in run/top\.avi"),
+    Case("fit-sync-frame-outside-the-frames-used",
+         setup=run42_copy(scene=lambda t: scene_value("frames", "[0, 100]", "top")(
+             scene_value("sync_frame", "150", "top")(t))), args=("fit", "run"),
+         stderr=r"views\.top\.sync_frame = 150 is not among the frames used, 0\.\.99 "
+                r"\(views\.top\.frames = \[0, 100\]\)"),
+    # ---- outputs that cannot be written: found before any tracking (item 6) ----------
+    Case("fit-out-folder-is-a-file", setup=both(run42_copy(), files({"run/vidtrack": "x"})),
+         args=("fit", "run"),
+         stderr=r"run 'run42' \(run\): run/vidtrack is a file; expected a folder for "
+                r"vidtrack's outputs"),
+    Case("fit-fit-json-is-a-folder",
+         setup=both(run42_copy(), files({"run/vidtrack/fit.json/keep.txt": "x"})),
+         args=("fit", "run"),
+         stderr=r"run/vidtrack/fit\.json is a folder; expected a file vidtrack can replace"),
+    Case("fit-tracks-h5-is-a-folder",
+         setup=both(run42_copy(), files({"run/vidtrack/tracks.h5/keep.txt": "x"})),
+         args=("fit", "run"), stderr=r"run/vidtrack/tracks\.h5 is a folder"),
+    Case("fit-run-folder-read-only", setup=unwritable_run, args=("fit", "run"),
+         stderr=r"run 'run42' \(run\): cannot create run/vidtrack \(Permission denied\); "
+                r"expected a run folder you can write to"),
+    # ---- counts a user types are bounded (item 12) ----------------------------------
+    Case("fit-jobs-1000", setup=run42_copy(), args=("fit", "run", "--jobs", "1000"),
+         stderr=r"--jobs must be between 1 and 256, got 1000"),
+    Case("fit-jobs-0", setup=run42_copy(), args=("fit", "run", "--jobs", "0"),
+         stderr=r"--jobs must be between 1 and 256, got 0"),
+    Case("fit-bootstrap-1e7", setup=run42_copy(), args=("fit", "run", "--bootstrap", "10000000"),
+         stderr=r"--bootstrap must be between 0 and 100000 resamples, got 10000000"),
+    Case("fit-seed-negative", setup=run42_copy(), args=("fit", "run", "--seed", "-1"),
+         stderr=r"--seed must be between 0 and 4294967295, got -1"),
+    Case("report-jobs-1000", setup=experiment(), args=("report", "exp", "--jobs", "1000"),
+         stderr=r"--jobs must be between 1 and 256, got 1000"),
+    Case("fit-scheduler-not-an-address", setup=run42_copy(),
+         args=("fit", "run", "--scheduler", "notanaddress"),
+         stderr=r"--scheduler notanaddress: not a scheduler address .*expected e\.g\. tcp://"),
+    # ---- report: the experiment checked against every scene before fitting (item 7) --
+    Case("report-misspelt-factor", setup=experiment(name="n_rmp"), args=("report", "exp"),
+         stderr=r"exp/runs/a/scene\.toml: \[factors\] has no 'n_rmp' \(did you mean "
+                r"'n_rpm'\?\), which experiment\.toml's factor A names"),
+    Case("report-factor-not-a-number",
+         setup=experiment(scene=lambda t: t.replace("n_rpm = 550", 'n_rpm = "fast"')),
+         args=("report", "exp"),
+         stderr=r"exp/runs/b/scene\.toml: factors\.n_rpm must be a finite number .*got 'fast'"),
+    Case("report-unknown-response", setup=experiment(responses='["k1", "k5"]'),
+         args=("report", "exp"), stderr=r"responses names 'k5'; expected some of k1, k2, k3, k4"),
+    Case("report-orthogonal-design", setup=experiment(design="orthogonal"),
+         args=("report", "exp"),
+         stderr=r"design = 'orthogonal': 'vidtrack report' analyses a ccd design"),
+    Case("report-a-run-with-the-same-footage-twice",
+         setup=experiment(scene=top_source("front.avi")), args=("report", "exp"),
+         stderr=r"run 'run42' \(exp/runs/b\): the inputs disagree: views front and top both "
+                r"read"),
+    Case("report-a-run-whose-source-is-missing",
+         setup=both(experiment(), lambda w: (w / "exp/runs/b/top.avi").unlink()),
+         args=("report", "exp"),
+         stderr=r"run 'run42' \(exp/runs/b\), view top: views\.top\.source: "
+                r"exp/runs/b/top\.avi does not exist"),
+    Case("report-out-folder-is-a-file",
+         setup=both(experiment(), files({"exp/vidtrack": "x"})), args=("report", "exp"),
+         stderr=r"experiment 'exp': exp/vidtrack is a file"),
+]
+
+
 # ------------------------------------------------------------------ the runner
 
 def _tree(folder):

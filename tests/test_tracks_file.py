@@ -156,7 +156,7 @@ def _assert_tables_match_h5(folder):
     table = pd.read_csv(folder / "tracks.csv")
     assert list(table.columns[:6]) == TRACKS_CSV_FIRST
     assert table.columns[-1] == "flag_names"
-    for v, cols in views.items():
+    for cols in views.values():
         # every per-frame dataset of the view, and nothing else (no index column)
         assert set(table.columns) == set(cols) | {"view", "flag_names"}
     assert list(dict.fromkeys(table["view"])) == list(views)       # front, then top

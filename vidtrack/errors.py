@@ -24,5 +24,11 @@ class FitError(VidtrackError):
     """A fit did not converge or the data cannot support it."""
 
 
+class DisagreementError(VidtrackError):
+    """The inputs of a run disagree with each other or with physics (the views on the X
+    they share, one footage for two views, implausible accelerations): the fit would
+    be wrong. ``vidtrack fit --accept-disagreement`` fits anyway, with a warning."""
+
+
 #: Every exception the command line reports as bad input (exit code 2).
 INPUT_ERRORS = (VidtrackError, fits.errors.InputError, calibration.errors.InputError)

@@ -1,6 +1,6 @@
 """An experiment: many runs -> the coefficient table (Chen 2018 Table 2) -> its ANOVA.
 
-``experiment.toml`` (SPEC.md) names the design, the factors with their coding and the
+``experiment.toml`` (docs/scene.md) names the design, the factors with their coding and the
 responses; each run's ``fit.json`` gives the k's (the mean over its throws). The table
 has one row per run: ``run``, the coded factors (``A``, ``B``, ``C``), the factors in
 natural units (their names) and the responses, with standard errors beside them.
@@ -13,6 +13,57 @@ import pandas as pd
 
 from vidtrack._atomic import atomic_path, write_text
 from vidtrack.errors import SceneError
+
+#: What ``vidtrack report`` writes into ``<experiment>/vidtrack/``.
+OUTPUTS = ("coefficients.csv", "anova.json", "report.html", "notes.txt")
+#: The responses a run's fit.json gives.
+RESPONSES = ("k1", "k2", "k3", "k4")
+
+
+def check_runs(experiment, scenes):
+    """What the analysis needs of the runs, checked before any run is fitted.
+
+    Parameters
+    ----------
+    experiment : vidtrack.scene.Experiment
+    scenes : sequence of vidtrack.scene.Scene
+        Every run's scene, in run order.
+
+    Raises
+    ------
+    SceneError
+        A design the report cannot analyse, a response that no fit gives, a run whose
+        scene.toml lacks a factor of the design or gives it as something else than a
+        number (the message names the file, the factor, what the scene has).
+    """
+    import difflib
+
+    if experiment.design != "ccd":
+        raise SceneError(f"{experiment.path}: design = {experiment.design!r}: 'vidtrack "
+                         "report' analyses a ccd design; fit the runs with 'vidtrack fit' "
+                         "and analyse the table with 'vidtrack anova --design orthogonal'")
+    for k in experiment.responses:
+        if k not in RESPONSES:
+            near = difflib.get_close_matches(k, RESPONSES, n=1)
+            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            raise SceneError(f"{experiment.path}: responses names {k!r}{hint}; expected "
+                             f"some of {', '.join(RESPONSES)}")
+    for scene in scenes:
+        for letter, factor in experiment.factors.items():
+            if factor.name not in scene.factors:
+                have = list(scene.factors)
+                near = difflib.get_close_matches(factor.name, have, n=1)
+                hint = f" (did you mean {near[0]!r}?)" if near else ""
+                raise SceneError(
+                    f"{scene.path}: [factors] has no {factor.name!r}{hint}, which "
+                    f"{experiment.path.name}'s factor {letter} names; the scene has "
+                    f"{', '.join(have) if have else 'no factors'}")
+            value = scene.factors[factor.name]
+            if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or not np.isfinite(value):
+                raise SceneError(f"{scene.path}: factors.{factor.name} must be a finite "
+                                 f"number (factor {letter} of the design is coded from "
+                                 f"it), got {value!r}")
 
 
 def coefficient_table(experiment, records):

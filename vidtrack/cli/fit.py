@@ -1,8 +1,10 @@
 """``vidtrack fit``: footage -> tracks -> world track -> k1..k4, for one or many runs."""
 
+import contextlib
+
 HELP = "fit k1..k4 to a run's footage (frames, tracks, 3-D track, least squares)"
 DESCRIPTION = """\
-For each run folder (scene.toml plus footage; SPEC "A run folder"): read the frames,
+For each run folder (scene.toml plus footage; docs/reference.md): read the frames,
 track the straw in every view, merge the views into the world track, fit the throw
 model axis by axis, and write <run>/vidtrack/tracks.h5, fit.json, report.md and
 report.html. Only the stages the scene needs run; a stage whose inputs and settings are
@@ -11,12 +13,19 @@ fit.json holds the mean over the throws. What the scene cannot determine (k4 wit
 top view, k2 without a descent) is reported as not determined, with the reason.
 
 RUN may be a run folder, an experiment folder (experiment.toml: its runs) or a folder
-whose sub-folders are runs.
+whose sub-folders are runs. Every run is checked (scene, footage, frame ranges, output
+folders) before the first is tracked.
+
+The views are cross-checked after tracking: their disagreement on the X both see, their
+speeds along it (a wrong fps), the same footage named for two views, implausible
+accelerations (docs/fit-outputs.md, "Cross-checks"). Inputs that disagree stop the run
+(exit 2) unless --accept-disagreement, which fits anyway and prints the warning.
 
 Examples:
   vidtrack fit datasets/run42/
   vidtrack fit exp2016/runs/ --jobs 2
   vidtrack fit run42/ --json --model linear
+  vidtrack fit run42/ --accept-disagreement
 """
 
 
@@ -29,18 +38,23 @@ def add_arguments(parser):
                              "drag (Liao 2021) or drag-free (Hou 2019)")
     parser.add_argument("--bootstrap", type=int, default=0, metavar="N",
                         help="residual-bootstrap resamples for the errors (default 0: "
-                             "from the Jacobian), e.g. --bootstrap 200")
+                             "from the Jacobian; at most 100000), e.g. --bootstrap 200")
     parser.add_argument("--seed", type=int, default=0,
-                        help="random seed of the bootstrap (default 0)")
+                        help="random seed of the bootstrap (default 0; 0 to 2^32-1)")
     parser.add_argument("--jobs", type=int, default=1, metavar="N",
-                        help="fit runs in N parallel processes, e.g. --jobs 2")
+                        help="fit runs in N parallel processes (1 to 256), e.g. --jobs 2")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="dask.distributed scheduler to fit runs on, e.g. "
                              "tcp://10.0.0.5:8786 (needs: pip install 'vidtrack[dask]')")
     parser.add_argument("--force", action="store_true",
                         help="rerun every stage even when its inputs are unchanged")
     parser.add_argument("--no-report", action="store_true",
-                        help="skip report.md and report.html")
+                        help="skip report.md and report.html (a report of an earlier fit "
+                             "is removed)")
+    parser.add_argument("--accept-disagreement", action="store_true",
+                        help="fit even when the inputs disagree (the views on X, a wrong "
+                             "fps, one footage for two views, implausible accelerations); "
+                             "the warning is printed and kept in fit.json")
     parser.add_argument("--json", action="store_true",
                         help="print the fit.json record(s) to stdout (a list for several runs)")
 
@@ -62,6 +76,10 @@ def format_records(records):
                      + f" {rms:>16} {total:6.2f}")
     notes = []
     for r in records:
+        if "fit" in r.get("stages_reused", []):
+            when = r.get("throws_fitted_at") or r.get("fitted_at")
+            notes.append(f"{r['run']}: nothing changed: reused the fit of "
+                         f"{when or 'an earlier run'} (--force fits again)")
         for k in ("k1", "k2", "k3", "k4"):
             c = r["coefficients"][k]
             if not c["determined"]:
@@ -71,28 +89,62 @@ def format_records(records):
 
 def run(args):
     import json
+    import logging
     import sys
 
-    from vidtrack.errors import VidtrackError
-    from vidtrack.run.pipeline import FitOptions, find_runs, fit_runs
+    from vidtrack.run.pipeline import FitOptions, check_counts, find_runs, fit_runs
 
-    if args.jobs < 1:
-        raise VidtrackError(f"--jobs must be >= 1, got {args.jobs}")
-    if args.bootstrap < 0:
-        raise VidtrackError(f"--bootstrap must be >= 0, got {args.bootstrap}")
+    check_counts(jobs=args.jobs, bootstrap=args.bootstrap, seed=args.seed)
     runs = find_runs(args.runs)
     options = FitOptions(model=args.model, bootstrap=args.bootstrap, seed=args.seed,
                          force=args.force, report=not args.no_report, quiet=args.quiet,
-                         view_process=True)
+                         view_process=True, accept_disagreement=args.accept_disagreement)
+
+    log = logging.getLogger(__name__)
 
     def progress(record):
-        if not args.quiet and not args.json and sys.stderr.isatty():
+        log.info("fitted %s", record["run"])
+        if (not args.quiet and not args.json and sys.stderr.isatty()
+                and not log.isEnabledFor(logging.INFO)):
             print(f"  fitted {record['run']}", file=sys.stderr)
 
-    records = fit_runs(runs, options, jobs=args.jobs, scheduler=args.scheduler,
-                       progress=progress)
+    try:
+        with sigterm_as_interrupt():
+            # every run is checked before any is tracked (fit_runs: prepare_runs)
+            records = fit_runs(runs, options, jobs=args.jobs, scheduler=args.scheduler,
+                               progress=progress)
+    except KeyboardInterrupt:
+        print(f"vidtrack fit: {INTERRUPTED}", file=sys.stderr)
+        return 130
     if args.json:
         print(json.dumps(records[0] if len(records) == 1 else records, indent=2))
     else:
         print(format_records(records))
     return 0
+
+
+#: What Ctrl-C (or SIGTERM) during a fit or report leaves, said on stderr (exit 130).
+INTERRUPTED = ("interrupted; every file in the runs' vidtrack/ folders is whole (the "
+               "unfinished stage left none) and finished stages are reused: run the same "
+               "command again to finish")
+
+
+@contextlib.contextmanager
+def sigterm_as_interrupt():
+    """SIGTERM raises KeyboardInterrupt here, as Ctrl-C does: the worker process is
+    stopped and temporary files are removed on the way out."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def on_term(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, on_term)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)

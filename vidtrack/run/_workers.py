@@ -43,8 +43,8 @@ def track_view(scene, folder, name, settings, *, quiet=True, cancel=None, parts=
 
 
 #: What the stages after tracking import (about 0.8 s of CPU).
-LATER_STAGES = ("scipy.optimize", "h5py", "vidtrack.world.orthogonal", "vidtrack.run.tracks_file", "fits.lsq",
-                "vidtrack.run.fit_record")
+LATER_STAGES = ("scipy.optimize", "h5py", "vidtrack.world.orthogonal",
+                "vidtrack.run.tracks_file", "fits.lsq", "vidtrack.run.fit_record")
 
 
 def _import_all(names):
@@ -79,8 +79,30 @@ def _columns(frame):
 def _send(conn, status, value, what):
     try:
         conn.send((status, value))
+    except OSError:                # the caller is gone: _process_main ends quietly
+        raise
     except Exception as exc:       # e.g. an exception that does not pickle
         conn.send(("error", RuntimeError(f"{what}: {value!r} ({exc})")))
+
+
+def _exit_with_parent():
+    """End this process at once, quietly, when the process that started it ends
+    (killed, or stopped without stopping this one): nobody is left to answer."""
+    import multiprocessing
+    import os
+    import threading
+
+    parent = multiprocessing.parent_process()
+    if parent is None:
+        return
+
+    def watch():
+        from multiprocessing.connection import wait
+
+        wait([parent.sentinel])
+        os._exit(0)
+
+    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
 
 
 def _warm_up_plots():
@@ -96,8 +118,13 @@ def _process_main(conn):
     # SIGTERM, on which it exits as from an error (finalisers run: no leaked semaphore)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))
+    _exit_with_parent()
     try:
         _serve(conn)
+    except (EOFError, OSError):
+        # the caller went away mid-job (its end of the pipe closed): nothing to report
+        # to, and nothing to print on a terminal that is no longer its own
+        sys.exit(0)
     finally:
         # done: a SIGTERM now (the caller stopping this process as it shuts down) ends
         # it at once

@@ -1,4 +1,4 @@
-"""fit.json (schema 1, SPEC.md): one throw's record, and the mean over replicate throws."""
+"""fit.json (schema 1, docs/fit-outputs.md): one throw's record, and the mean over throws."""
 
 import json
 
@@ -33,7 +33,7 @@ def throw_record(scene, fit, *, timings_s, world_points=None, extra=None):
     world_points : dict, optional
         Points measured per axis before flagged frames were dropped (for the record).
     extra : dict, optional
-        More fields (views, sync, checks), added after the SPEC fields.
+        More fields (views, sync, checks), added after the fixed fields of schema 1.
     """
     d = fit.to_dict()
     record = {

@@ -1,9 +1,19 @@
 """The pipeline behind ``vidtrack fit RUN``: footage -> tracks -> world track -> fit.
 
+Everything that can be checked is checked before any footage is tracked
+(:mod:`vidtrack.run.preflight`: the scene, the sources, the frame ranges and sync frames,
+the output folders), for every run of a command before the first is tracked.
+
 Only the stages a scene needs are run: the views it has, and a stage whose inputs and
-settings are unchanged is reused (keyed on a hash kept in ``<run>/vidtrack/stages.json``;
-``force=True`` reruns). Every output is written whole or not at all, and
-``stages.json`` is written last, so an interrupted run is simply run again.
+settings are unchanged is reused when its files are still the ones it wrote (its key and
+their sha256 digests kept in ``<run>/vidtrack/stages.json``, :mod:`vidtrack.run.cache`;
+``force=True`` reruns). A stage about to be computed again first removes the outputs
+it and the later stages wrote, so that a run that fails leaves nothing that looks
+current. Every output is written whole or not at all, fit.json before the reports, and
+each stage's record after its files, so an interrupted run is simply run again.
+
+After the tracks the views are cross-checked (:mod:`vidtrack.run.checks`); inputs that
+disagree stop the run unless ``FitOptions.accept_disagreement``.
 
 A run with ``throws/`` is fitted per throw (outputs in ``<run>/vidtrack/<throw>/``) and
 the run's ``fit.json`` holds the mean over the throws, as Chen et al. 2018 did.
@@ -12,6 +22,7 @@ the run's ``fit.json`` holds the mean over the throws, as Chen et al. 2018 did.
 import dataclasses
 import hashlib
 import json
+import logging
 import os
 import time
 from dataclasses import dataclass
@@ -21,10 +32,22 @@ from vidtrack import __version__
 from vidtrack._atomic import write_text
 from vidtrack.run._workers import (ViewProcess, ViewThread, preload_later_stages, source_of,
                                     track_view)
-from vidtrack.errors import FitError, SceneError
+from vidtrack.errors import DisagreementError, FitError, SceneError
+from vidtrack.run.cache import STAGES_FILE, Stages, file_digest  # noqa: F401 (STAGES_FILE,
+from vidtrack.run.preflight import OUT_DIR, about, prepare_run  # noqa: F401  OUT_DIR: as before)
 
-OUT_DIR = "vidtrack"
-STAGES_FILE = "stages.json"
+log = logging.getLogger(__name__)
+
+#: What each stage writes (removed before the stage is computed again).
+TRACKS_FILES = ("tracks.h5", "tracks.csv", "world.csv")
+REPORT_FILES = ("report.md", "report.html")
+FIT_FILES = ("fit.json",) + REPORT_FILES
+#: Largest --bootstrap and --jobs (each resample is a full refit; jobs beyond the
+#: cores only queue).
+MAX_BOOTSTRAP = 100_000
+MAX_JOBS = 256
+#: Seconds to wait for a --scheduler to answer.
+SCHEDULER_TIMEOUT_S = 10
 TRACKER_SETTINGS = {"k_sigma": 5.0, "min_area_px": 4, "max_gap": 5}
 
 
@@ -42,6 +65,9 @@ class FitOptions:
     # the second view in a process of its own, not a thread (spawned: needs a main module
     # that is safe to import, as the command line's is)
     view_process: bool = False
+    # inputs that disagree (the views on X, the same footage twice, implausible
+    # accelerations) are reported as warnings instead of stopping the run
+    accept_disagreement: bool = False
 
     def key(self):
         return {"model": self.model, "bootstrap": self.bootstrap,
@@ -68,17 +94,6 @@ def _file_fingerprint(path):
     return [st.st_size, st.st_mtime_ns, h.hexdigest()]
 
 
-def _check_sources(scene, folder):
-    """Every view's footage exists (before anything is read or written)."""
-    from vidtrack.errors import SourceError
-
-    for name in scene.view_names:
-        path = source_of(scene.views[name], scene, folder)
-        if not path.exists():
-            raise SourceError(f"{scene.path}: views.{name}.source: {path} does not exist "
-                              "(expected the view's video, image folder or .cine)")
-
-
 def _footage_bytes(path):
     path = Path(path)
     if path.is_dir():
@@ -86,14 +101,21 @@ def _footage_bytes(path):
     return path.stat().st_size
 
 
-def _read_stages(out_dir):
-    try:
-        return json.loads((out_dir / STAGES_FILE).read_text())
-    except (OSError, ValueError):
-        return {}
+def _note(message):
+    """A line on stderr (``vidtrack fit: note: ...``) and in the log."""
+    log.warning(message, extra={"label": "note"})
 
 
-def _track_views(scene, folder, options, timings, workers):
+def _remove_outputs(out_dir, stages, stage_names, files):
+    """Before a stage is computed again: forget it (and the later stages) in
+    stages.json, then remove the files they wrote, so that a run failing from here on
+    leaves no output that looks current."""
+    stages.drop(*stage_names)
+    for name in files:
+        (Path(out_dir) / name).unlink(missing_ok=True)
+
+
+def _track_views(scene, folder, options, timings, workers, *, label_of=lambda view: None):
     """Track every view of the scene in ``folder``.
 
     With two views and ``options.threads`` above 1 the view with the larger footage is
@@ -104,6 +126,8 @@ def _track_views(scene, folder, options, timings, workers):
 
     The worker process is taken from ``workers`` (a dict kept over a run's throws; the
     caller stops what is in it), and put there when it is started here.
+
+    A view's error is said with ``label_of(view)`` (:func:`vidtrack.run.preflight.about`).
 
     Returns
     -------
@@ -125,18 +149,23 @@ def _track_views(scene, folder, options, timings, workers):
         if options.view_process:
             if "process" not in workers:
                 workers["process"] = ViewProcess()
-                preload_later_stages()
             other = workers["process"]
+            if not getattr(other, "preloading", False):
+                # now, not before: the imports hold the GIL, decoding mostly does not
+                preload_later_stages()
+                other.preloading = True
             other.start(scene, folder, name, TRACKER_SETTINGS, quiet=options.quiet,
                         report=options.report)
         else:
             other = ViewThread(scene, folder, name, TRACKER_SETTINGS, quiet=options.quiet)
     try:
         for name in names:
-            tracks[name] = track_view(scene, folder, name, TRACKER_SETTINGS,
-                                      quiet=options.quiet)
+            with about(label_of(name), view=name):
+                tracks[name] = track_view(scene, folder, name, TRACKER_SETTINGS,
+                                          quiet=options.quiet)
         if other is not None:
-            tracks[other.name] = other.track()
+            with about(label_of(other.name), view=other.name):
+                tracks[other.name] = other.track()
             keep = isinstance(other, ViewProcess)
     finally:
         if other is not None and not keep:
@@ -146,10 +175,13 @@ def _track_views(scene, folder, options, timings, workers):
             other if keep and options.report else None)
 
 
-def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers):
+def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
+                  label_of=lambda view: None):
     """Tracks and the world track: reused from tracks.h5 when nothing changed.
 
-    Writes tracks.h5 and, beside it, tracks.csv and world.csv (the same numbers).
+    Writes tracks.h5 and, beside it, tracks.csv and world.csv (the same numbers), and
+    records them in ``stages`` (:class:`vidtrack.run.cache.Stages`). Before tracking
+    again it removes what this stage and the fit wrote before.
 
     Returns the tracks' key, the tracks, the world track, whether they were reused, and
     the worker process that is to draw the report (or None).
@@ -158,34 +190,96 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers):
                    "sources": {n: _file_fingerprint(source_of(v, scene, folder))
                                for n, v in scene.views.items()}})
     h5 = out_dir / "tracks.h5"
-    if not options.force and stages.get("tracks") == key and h5.is_file():
-        from vidtrack.run.tracks_file import read_tracks, write_tables
-
-        t0 = time.perf_counter()
-        tf = read_tracks(h5)
-        if tf.world is not None:
-            # tracks.csv and world.csv belong to this stage: a missing one (or one older
-            # than a tracks.h5 edited by hand) is written from the tracks reused
-            write_tables(out_dir, tf.tracks, tf.world, missing_only=True)
-            timings["tracks_reused"] = time.perf_counter() - t0
-            return key, tf.tracks, tf.world, True, None
-    tracks, helper = _track_views(scene, folder, options, timings, workers)
-    from vidtrack.world.orthogonal import merge_tracks
+    if not options.force:
+        reused = _reused_tracks(scene, out_dir, key, stages, timings, label_of(None))
+        if reused is not None:
+            return key, *reused, True, None
+    # tracked again: what this stage and the fit wrote before must not outlive a failure
+    _remove_outputs(out_dir, stages, ("tracks", "fit"), TRACKS_FILES + FIT_FILES)
     from vidtrack.run.tracks_file import write_tables, write_tracks
 
-    t0 = time.perf_counter()
-    mappings = {n: v.mapping() for n, v in scene.views.items()}
-    world = merge_tracks(tracks, mappings,
-                         sync={n: v.sync_frame for n, v in scene.views.items()})
-    # the merge flags each view's frames before its t = 0 and carries the release over
-    tracks = world.tracks or tracks
-    timings["merge"] = time.perf_counter() - t0
-    if helper is not None:
-        helper.send_tracks({n: tr.data for n, tr in tracks.items()})
-    write_tracks(h5, tracks, world, scene_hash=scene.hash,
-                 calibration={n: v.to_dict() for n, v in scene.views.items()})
+    if scene.calibrated:     # cameras at any angle: triangulated (vidtrack.run.calibrated)
+        from vidtrack.run.calibrated import calibrated_tracks
+
+        tracks, world = calibrated_tracks(scene, folder, TRACKER_SETTINGS,
+                                          quiet=options.quiet, timings=timings)
+        helper = None
+        calibration = {n: v.camera.to_dict() for n, v in scene.views.items()}
+    else:
+        tracks, helper = _track_views(scene, folder, options, timings, workers,
+                                      label_of=label_of)
+        from vidtrack.world.orthogonal import merge_tracks
+
+        t0 = time.perf_counter()
+        mappings = {n: v.mapping() for n, v in scene.views.items()}
+        world = merge_tracks(tracks, mappings,
+                             sync={n: v.sync_frame for n, v in scene.views.items()})
+        # the merge flags each view's frames before its t = 0 and carries the release over
+        tracks = world.tracks or tracks
+        timings["merge"] = time.perf_counter() - t0
+        if helper is not None:
+            helper.send_tracks({n: tr.data for n, tr in tracks.items()})
+        calibration = {n: v.to_dict() for n, v in scene.views.items()}
+    write_tracks(h5, tracks, world, scene_hash=scene.hash, calibration=calibration)
     write_tables(out_dir, tracks, world)        # tracks.csv, world.csv: the same numbers
+    stages.record("tracks", key, TRACKS_FILES)
     return key, tracks, world, False, helper
+
+
+def _reused_tracks(scene, out_dir, key, stages, timings, label):
+    """(tracks, world) from tracks.h5 when the tracks stage may be reused, else None
+    (with a note on stderr when a file of the stage changed or went missing).
+
+    Reused: tracks.h5 is the file the stage recorded (its sha256), or it was changed
+    after it was written but reads back whole (HDF5 checksums, every dataset and
+    attribute) for this scene: a track edited by hand (flags set, points removed) is
+    used as edited, said in a note; the fit is then computed again (its key holds
+    tracks.h5's digest). A file damaged on disk fails to read back and is tracked
+    again. tracks.csv and world.csv are written again from tracks.h5 unless they are
+    the files recorded.
+    """
+    from vidtrack.run.tracks_file import read_tracks, write_tables
+
+    ok, why = stages.check("tracks", key, ("tracks.h5",))
+    edited = False
+    h5 = Path(out_dir) / "tracks.h5"
+    if not ok and not stages.changed("tracks", key, "tracks.h5"):
+        if why:
+            _note(f"{label}: {why}; tracking again")
+        return None
+    t0 = time.perf_counter()
+    try:
+        tf = read_tracks(h5)
+    except Exception as exc:      # noqa: BLE001 (any failure to read back: track again)
+        _note(f"{label}: tracks.h5 {'changed and ' if why else ''}does not read back "
+              f"whole ({type(exc).__name__}: {exc}); tracking again")
+        return None
+    if tf.world is None or set(tf.tracks) != set(scene.view_names):
+        _note(f"{label}: tracks.h5 does not hold this scene's views and world track; "
+              "tracking again")
+        return None
+    if not ok:
+        if tf.scene_hash != scene.hash:
+            _note(f"{label}: {why}, for another scene; tracking again")
+            return None
+        _note(f"{label}: {why}, and reads back whole: using it as edited (--force "
+              "tracks again)")
+        edited = True
+    tables = ("tracks.csv", "world.csv")
+    stale = [n for n in tables if not stages.file_matches("tracks", n)]
+    if edited or stale:
+        # tracks.csv and world.csv belong to this stage: written again from the tracks
+        # reused when missing, changed, or from before tracks.h5 was edited
+        for name in stale:
+            if not edited:
+                how = "changed since it was written" if (Path(out_dir) / name).exists() \
+                    else "is missing"
+                _note(f"{label}: {name} {how}; written again from tracks.h5")
+        write_tables(out_dir, tf.tracks, tf.world)
+        stages.record("tracks", key, TRACKS_FILES,
+                      at=None if edited else stages.at("tracks"))
+    timings["tracks_reused"] = time.perf_counter() - t0
+    return tf.tracks, tf.world
 
 
 def _check_cp(scene, options):
@@ -199,76 +293,179 @@ def _check_cp(scene, options):
     return cp
 
 
-def fit_throw_folder(scene, folder, out_dir, options, workers=None):
-    """Track, merge and fit one throw (the run folder or one of its throws/ folders).
+def fit_throw_folder(scene, folder, out_dir, options, workers=None, *, plan=None):
+    """Track, merge, cross-check and fit one throw (the run folder or one of its throws/
+    folders).
 
     ``workers``: a dict holding the worker process across a run's throws (the caller
     stops it: :func:`_stop_workers`); without it one is started and stopped here.
-    Returns the fit.json record written to ``out_dir``.
+    ``plan``: the run as :func:`vidtrack.run.preflight.prepare_run` checked it (without
+    it this throw's sources and output folder are checked here).
+    Returns the fit.json record written to ``out_dir`` (or reused from it: then
+    ``stages_reused`` is ``["tracks", "fit"]`` and ``fitted_at`` says when it was fitted).
+
+    Raises
+    ------
+    VidtrackError
+        Bad input, inputs that disagree (unless ``options.accept_disagreement``), a fit
+        that does not converge; the message names the run, the throw and the view.
     """
     if workers is None:
         workers = {}
         try:
-            return fit_throw_folder(scene, folder, out_dir, options, workers)
+            return fit_throw_folder(scene, folder, out_dir, options, workers, plan=plan)
         finally:
             _stop_workers(workers)
+    from vidtrack.run.preflight import RunPlan, check_output_folder, RUN_OUTPUTS
+    from vidtrack.run.preflight import _check_folder_sources
+
     out_dir = Path(out_dir)
-    _check_sources(scene, folder)
-    stages = _read_stages(out_dir)
+    if plan is None:                 # a library caller: this throw's checks, here
+        plan = RunPlan(scene=scene, out=out_dir, throws=[])
+        with about(plan.label(folder)):
+            found, notes = _check_folder_sources(scene, folder,
+                                                 lambda v: plan.label(folder, v))
+            plan.findings[folder], plan.notes[folder] = found, notes
+            _refuse(found, options)
+            check_output_folder(out_dir, RUN_OUTPUTS, plan.label(folder))
+    label = plan.label(folder)
+    with about(label):
+        return _fit_throw(scene, folder, out_dir, options, workers, plan, label)
+
+
+def _cross_check(scene, tracks, world):
+    """The findings of :func:`vidtrack.run.checks.cross_checks` on this throw."""
+    from vidtrack.run.checks import cross_checks
+
+    mappings = {}
+    for n, v in scene.views.items():
+        if hasattr(v, "mapping"):
+            mappings[n] = v.mapping()
+    return cross_checks(world, tracks, mappings, g=scene.physics.gravity_m_s2,
+                        sources={n: {"fps": getattr(v, "fps", None)}
+                                 for n, v in scene.views.items()})
+
+
+def _refuse(findings, options, *, where_tracks=None):
+    """Stop on findings (DisagreementError, one line) unless they are accepted."""
+    if not findings or options.accept_disagreement:
+        return
+    what = "; ".join(f.message for f in findings)
+    kept = f" (the tracks are in {where_tracks})" if where_tracks else ""
+    raise DisagreementError(f"the inputs disagree: {what}; the fit would be wrong{kept}. "
+                            "To fit anyway, rerun with --accept-disagreement")
+
+
+def _accepted(findings, label):
+    """The findings let through: each a warning on stderr, and notes for fit.json."""
+    notes = []
+    for f in findings:
+        log.warning("%s: %s (accepted with --accept-disagreement)", label, f.message)
+        notes.append(f"inputs disagree ({f.check}, accepted): {f.message}")
+    return notes
+
+
+def _read_record(path):
+    try:
+        record = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return record if isinstance(record, dict) and "coefficients" in record else None
+
+
+def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
+    stages = Stages.read(out_dir)
+    if stages.problem:
+        _note(f"{label}: {stages.problem}; computing every stage again")
     timings = {}
     t_start = time.perf_counter()
     tracks_key, tracks, world, reused, helper = _tracks_stage(
-        scene, folder, out_dir, options, timings, stages, workers)
+        scene, folder, out_dir, options, timings, stages, workers,
+        label_of=lambda view: plan.label(folder, view) if view else label)
+    findings = list(plan.findings.get(folder, [])) + _cross_check(scene, tracks, world)
+    if findings and not options.accept_disagreement:
+        # no fit.json (nor report) of an earlier fit may stand in for this one
+        _remove_outputs(out_dir, stages, ("fit",), FIT_FILES)
+        _refuse(findings, options, where_tracks=out_dir / "tracks.h5")
     import numpy as np
 
     from fits.errors import ConvergenceError
     from fits.lsq import fit_throw
+    from vidtrack.run.cache import utc_now
     from vidtrack.run.fit_record import dumps, throw_record
-    from vidtrack.report.run_page import write_run_report
 
     cp = _check_cp(scene, options)
     # tracks.h5 itself too: a track edited by hand (flags set, points removed) is refitted
     fit_key = _digest({"tracks": tracks_key, "fit": options.key(), "cp": cp,
-                       "tracks_file": _file_fingerprint(out_dir / "tracks.h5")})
-    if (not options.force and stages.get("fit") == fit_key
-            and (out_dir / "fit.json").is_file()):
-        return json.loads((out_dir / "fit.json").read_text())
+                       "tracks_file": file_digest(out_dir / "tracks.h5")})
+    needed = ("fit.json",) + (REPORT_FILES if options.report else ())
+    if not options.force:
+        ok, why = stages.check("fit", fit_key, needed)
+        record = _read_record(out_dir / "fit.json") if ok else None
+        if record is not None:
+            notes = _accepted(findings, label)
+            if not options.report:
+                # --no-report: a report is kept only when it is the one of this fit
+                for name in REPORT_FILES:
+                    if not stages.file_matches("fit", name):
+                        (out_dir / name).unlink(missing_ok=True)
+            record = dict(record, stages_reused=["tracks", "fit"],
+                          fitted_at=record.get("fitted_at") or stages.at("fit"))
+            if notes and not record.get("checks"):
+                record["checks"] = [f.to_dict() for f in findings]
+            return record
+        if why:
+            _note(f"{label}: {why}; fitting again")
+    _remove_outputs(out_dir, stages, ("fit",), FIT_FILES)
+    notes = list(plan.notes.get(folder, [])) + _accepted(findings, label)
     t0 = time.perf_counter()
     try:
         fit = fit_throw(world.data, cp, g=scene.physics.gravity_m_s2, v1=scene.v1_m_s,
                         model=options.model, bootstrap=options.bootstrap,
                         rng=np.random.default_rng(options.seed))
     except ConvergenceError as exc:
-        # no fit.json (nor report) of an earlier fit may stand in for this one
-        for name in ("fit.json", "report.md", "report.html"):
-            (out_dir / name).unlink(missing_ok=True)
-        write_text(out_dir / STAGES_FILE, json.dumps({"tracks": tracks_key}, indent=2) + "\n")
-        raise FitError(f"{folder}: the fit did not converge: {exc}; the tracks are in "
+        raise FitError(f"the fit did not converge: {exc}; the tracks are in "
                        f"{out_dir / 'tracks.h5'} (see the report of a run that fits, and "
                        "docs/fit-outputs.md)") from exc
     timings["fit"] = time.perf_counter() - t0
-    notes = list(world.warnings)
+    said = {f.check for f in findings}
+    notes += [w for w in world.warnings          # not twice: the finding says it
+              if not ("x_disagreement" in said and w.startswith("the views disagree on X"))]
     for name, tr in tracks.items():
         notes += [f"{name}: {n}" for n in tr.notes]
     extra = {"throw": Path(folder).name if Path(folder) != scene.folder else None,
              "views": {n: tr.to_dict() for n, tr in tracks.items()},
              "world": world.to_dict(), "stages_reused": ["tracks"] if reused else [],
-             "notes": notes}
+             "checks": [f.to_dict() for f in findings], "notes": notes}
     record = throw_record(scene, fit, timings_s=timings, extra=extra)
+    pages = None
     if options.report:
-        t0 = time.perf_counter()
-        views = {n: tr.data for n, tr in tracks.items()}
-        # drawn by the process that tracked the second view, if it is there (it loaded
-        # matplotlib and drew the tracks plot while this one fitted)
-        html = helper.render(record, fit=fit, world=world.data) if helper else None
-        write_run_report(out_dir, record, fit=fit, world=world.data, views=views, html=html)
-        timings["report"] = time.perf_counter() - t0
+        pages = _render_report(record, fit, world, tracks, helper, timings)
     timings["total"] = time.perf_counter() - t_start
     record["timings_s"] = {k: round(float(v), 6) for k, v in timings.items()}
+    record["fitted_at"] = utc_now()
+    # fit.json first: a report never stands without the fit it shows
     write_text(out_dir / "fit.json", dumps(record))
-    write_text(out_dir / STAGES_FILE, json.dumps({"tracks": tracks_key, "fit": fit_key},
-                                                 indent=2) + "\n")
+    for name, text in (pages or {}).items():
+        write_text(out_dir / name, text)
+    stages.record("fit", fit_key, needed, at=record["fitted_at"])
     return record
+
+
+def _render_report(record, fit, world, tracks, helper, timings):
+    """report.md and report.html as text (written after fit.json)."""
+    from vidtrack.report.run_page import render_html, render_markdown
+
+    t0 = time.perf_counter()
+    # drawn by the process that tracked the second view, if it is there (it loaded
+    # matplotlib and drew the tracks plot while this one fitted)
+    html = helper.render(record, fit=fit, world=world.data) if helper else None
+    if html is None:
+        html = render_html(record, fit=fit, world=world.data,
+                           views={n: tr.data for n, tr in tracks.items()})
+    pages = {"report.md": render_markdown(record), "report.html": html}
+    timings["report"] = time.perf_counter() - t0
+    return pages
 
 
 def _stop_workers(workers):
@@ -276,31 +473,68 @@ def _stop_workers(workers):
         w.stop()
 
 
-def fit_run(run_dir, options=FitOptions()):
-    """Fit one run folder (and each of its throws); returns the run's fit.json record."""
-    from vidtrack.scene import load_scene
+def fit_run(run_dir, options=FitOptions(), *, plan=None, workers=None):
+    """Fit one run folder (and each of its throws); returns the run's fit.json record.
 
-    scene = load_scene(run_dir)
-    out = scene.folder / OUT_DIR
-    throws = scene.throw_dirs()
-    if not throws:
-        return fit_throw_folder(scene, scene.folder, out, options)
+    ``plan``: the run as :func:`vidtrack.run.preflight.prepare_run` checked it (default:
+    checked here, before anything is tracked). ``workers``: a dict holding a worker
+    process to use (the caller stops it); default one of the run's own.
+    """
+    plan = plan or prepare_run(run_dir)
+    _refuse_early(plan, options)
+    scene = plan.scene
+    out = plan.out
+    if not plan.throws:
+        return fit_throw_folder(scene, scene.folder, out, options, workers, plan=plan)
+    from vidtrack.run.cache import utc_now
     from vidtrack.run.fit_record import dumps, mean_record
-    from vidtrack.report.run_page import write_run_report
+    from vidtrack.report.run_page import render_markdown, render_html
 
+    # the run's mean is written again from its throws: until then there is none
+    for name in FIT_FILES:
+        (out / name).unlink(missing_ok=True)
     t0 = time.perf_counter()
-    workers = {}                     # one worker process serves all the throws
+    own = workers is None
+    workers = {} if own else workers      # one worker process serves all the throws
     try:
-        records = [fit_throw_folder(scene, d, out / d.name, options, workers)
-                   for d in throws]
+        records = [fit_throw_folder(scene, d, out / d.name, options, workers, plan=plan)
+                   for d in plan.throws]
     finally:
-        _stop_workers(workers)
+        if own:
+            _stop_workers(workers)
     record = mean_record(scene, records, timings_s={
         "throws_total": time.perf_counter() - t0})
-    if options.report:
-        write_run_report(out, record)
+    record["fitted_at"] = utc_now()
     write_text(out / "fit.json", dumps(record))
+    if options.report:
+        write_text(out / "report.md", render_markdown(record))
+        write_text(out / "report.html", render_html(record))
+    if all("fit" in r.get("stages_reused", []) for r in records):
+        record["stages_reused"] = ["tracks", "fit"]
+        record["throws_fitted_at"] = max((r.get("fitted_at") or "") for r in records) or None
     return record
+
+
+def _refuse_early(plan, options):
+    """Findings of the preflight (the same footage for two views) stop the run before
+    anything is tracked, unless accepted."""
+    for folder, found in plan.findings.items():
+        if found and not options.accept_disagreement:
+            with about(plan.label(folder)):
+                _refuse(found, options)
+
+
+def check_counts(*, jobs=1, bootstrap=0, seed=0):
+    """Counts a user types, within bounds (VidtrackError naming the limit)."""
+    from vidtrack.errors import VidtrackError
+
+    if not 1 <= jobs <= MAX_JOBS:
+        raise VidtrackError(f"--jobs must be between 1 and {MAX_JOBS}, got {jobs}")
+    if not 0 <= bootstrap <= MAX_BOOTSTRAP:
+        raise VidtrackError(f"--bootstrap must be between 0 and {MAX_BOOTSTRAP} "
+                            f"resamples, got {bootstrap}")
+    if not 0 <= seed < 2 ** 32:
+        raise VidtrackError(f"--seed must be between 0 and {2 ** 32 - 1}, got {seed}")
 
 
 def find_runs(paths):
@@ -322,44 +556,87 @@ def find_runs(paths):
             runs += subs
         else:
             raise SceneError(f"{p}: no such run folder")
-    return runs
+    # a run named twice is fitted once (two processes must never write one folder)
+    seen, unique = set(), []
+    for r in runs:
+        key = os.path.realpath(r)
+        if key not in seen:
+            seen.add(key)
+            unique.append(r)
+    return unique
 
 
-def _fit_one(args):
-    run_dir, options = args
-    return fit_run(run_dir, options)
+def _fit_one(args, workers=None):
+    plan, options = args
+    return fit_run(plan.scene.folder, options, plan=plan, workers=workers)
 
 
-def fit_runs(run_dirs, options=FitOptions(), *, jobs=1, scheduler=None, progress=None):
+def prepare_runs(run_dirs, options=FitOptions()):
+    """Every run's preflight (:func:`vidtrack.run.preflight.prepare_run`) and early
+    cross-checks, all before the first run is tracked. Returns the plans in order."""
+    plans = []
+    for r in run_dirs:
+        plan = prepare_run(r)
+        _refuse_early(plan, options)
+        plans.append(plan)
+    return plans
+
+
+def _connect(scheduler):
+    """A dask.distributed Client, or one line on what is wrong with ``scheduler``."""
+    from vidtrack.errors import VidtrackError
+
+    try:
+        from distributed import Client
+    except ImportError:
+        raise SceneError("--scheduler needs dask.distributed: pip install "
+                         "'vidtrack[dask]'") from None
+    try:
+        return Client(scheduler, timeout=SCHEDULER_TIMEOUT_S)
+    except (ValueError, TypeError) as exc:
+        raise VidtrackError(f"--scheduler {scheduler}: not a scheduler address ({exc}); "
+                            "expected e.g. tcp://10.0.0.5:8786") from None
+    except (OSError, TimeoutError) as exc:
+        raise VidtrackError(f"--scheduler {scheduler}: no dask scheduler answered within "
+                            f"{SCHEDULER_TIMEOUT_S} s ({type(exc).__name__}: {exc}); "
+                            "expected the address of a running scheduler, e.g. "
+                            "tcp://10.0.0.5:8786") from None
+
+
+def fit_runs(run_dirs, options=FitOptions(), *, jobs=1, scheduler=None, progress=None,
+             plans=None):
     """Fit several runs, in parallel processes (``jobs``) or on a Dask cluster.
+
+    Every run is checked first (:func:`prepare_runs`): a bad input anywhere stops the
+    command before any footage is tracked.
 
     Parameters
     ----------
     run_dirs : sequence of path
     options : FitOptions
     jobs : int
-        Worker processes (1: in this process).
+        Worker processes (1: in this process; at most :data:`MAX_JOBS`).
     scheduler : str, optional
         Address of a dask.distributed scheduler (needs the ``dask`` extra).
     progress : callable, optional
         Called with each finished run's record.
+    plans : list of RunPlan, optional
+        The runs already checked by :func:`prepare_runs` (``run_dirs`` is then ignored).
 
     Returns
     -------
     list of dict
         The fit.json records, in the order of ``run_dirs``.
     """
-    if scheduler or (jobs > 1 and len(run_dirs) > 1):
+    check_counts(jobs=jobs, bootstrap=options.bootstrap, seed=options.seed)
+    if plans is None:
+        plans = prepare_runs(run_dirs, options)
+    if scheduler or (jobs > 1 and len(plans) > 1):
         # the runs share the cores: one view at a time within each
         options = dataclasses.replace(options, threads=1)
-    work = [(Path(r), options) for r in run_dirs]
+    work = [(p, options) for p in plans]
     if scheduler:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise SceneError("--scheduler needs dask.distributed: pip install "
-                             "'vidtrack[dask]'") from None
-        with Client(scheduler) as client:
+        with _connect(scheduler) as client:
             futures = client.map(_fit_one, work, pure=False)
             results = client.gather(futures)
         for r in results:
@@ -367,18 +644,28 @@ def fit_runs(run_dirs, options=FitOptions(), *, jobs=1, scheduler=None, progress
                 progress(r)
         return results
     if jobs <= 1 or len(work) == 1:
-        results = []
-        for w in work:
-            results.append(_fit_one(w))
-            if progress:
-                progress(results[-1])
-        return results
+        workers = {}
+        try:
+            return _fit_in_turn(plans, options, progress, workers)
+        finally:
+            _stop_workers(workers)
     from concurrent.futures import ProcessPoolExecutor
 
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
+    with ProcessPoolExecutor(max_workers=min(jobs, len(work))) as pool:
         results = []
         for r in pool.map(_fit_one, work):
             results.append(r)
             if progress:
                 progress(r)
         return results
+
+
+def _fit_in_turn(plans, options, progress, workers):
+    """The runs one after the other in this process, sharing one worker process (spawned
+    and loaded once)."""
+    results = []
+    for plan in plans:
+        results.append(_fit_one((plan, options), workers))
+        if progress:
+            progress(results[-1])
+    return results

@@ -1,4 +1,4 @@
-"""``tracks.h5``: the per-view tracks and the world track of a run (SPEC.md "Outputs").
+"""``tracks.h5``: the per-view tracks and the world track of a run (docs/fit-outputs.md).
 
 Layout (HDF5, written with h5py, whole or not at all)::
 
@@ -10,8 +10,14 @@ Layout (HDF5, written with h5py, whole or not at all)::
                              release_note, fps, frame_shape, noise_sigma, k_sigma,
                              straw_level, scatter_px, notes (JSON)
     /world            datasets: t_s, x_m, y_m, z_m (float64, NaN where not measured)
-                      attrs: reference, t0_s (JSON), sync (JSON), x_rms_m, x_rms_px
-                             (NaN: not checked), x_points, warnings (JSON)
+                      attrs: kind ("orthogonal"), reference, t0_s (JSON), sync (JSON),
+                             x_rms_m, x_rms_px (NaN: not checked), x_points, warnings (JSON)
+
+Calibrated cameras (a scene with ``[world]``): one group per view of any name (the root
+attribute ``views`` lists them in order); ``/world`` has kind "calibrated", the datasets
+``frame``, ``views``, ``flags``, ``reprojection_px_<view>`` and ``X_m, Y_m, Z_m`` (the
+calibration's frame) besides t_s, x_m, y_m, z_m (the throw's frame), and attributes
+``columns`` and ``summary`` (JSON: the offsets, sync, rotation, reprojection figures).
 
 ``t_s`` of a view is its source clock (s from the file's first frame); ``t_s`` of
 ``/world`` is the time since the release (t = 0), and ``/world`` attribute ``t0_s``
@@ -105,11 +111,28 @@ def _num(value):
     return float("nan") if value is None else float(value)
 
 
-def _check_tracks(tracks, label):
+def _dataset(group, name, data):
+    """A dataset with a Fletcher-32 checksum (chunked, as the filter needs)."""
+    return group.create_dataset(name, data=data, fletcher32=True)
+
+
+def _is_calibrated(world):
+    return world is not None and hasattr(world, "rotation")
+
+
+def _view_order(tracks):
+    """front before top; calibrated views in their order."""
+    return [v for v in _VIEWS if v in tracks] + [v for v in tracks if v not in _VIEWS]
+
+
+def _check_tracks(tracks, label, *, calibrated=False):
     from vidtrack.track.tracker import TRACK_COLUMNS
 
     for v, tr in tracks.items():
-        if v not in _VIEWS:
+        if calibrated:
+            if not isinstance(v, str) or not v or "/" in v or v == "world":
+                raise TrackError(f"{label}: a view name must be a plain name, got {v!r}")
+        elif v not in _VIEWS:
             raise TrackError(f"{label}: unknown view {v!r}; expected front or top")
         missing = [c for c in TRACK_COLUMNS if c not in tr.data]
         if missing:
@@ -150,24 +173,27 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
     from vidtrack.track.tracker import FLAGS
 
     path = Path(path)
-    _check_tracks(tracks, "tracks.h5")
+    calibrated = _is_calibrated(world)
+    _check_tracks(tracks, "tracks.h5", calibrated=calibrated)
     with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as h:
+        # the HDF5 1.8 layout (object headers with checksums) and a Fletcher-32 checksum
+        # on the datasets (_dataset): a file damaged on disk fails to read instead of
+        # reading back other numbers, while an edit made through HDF5 keeps them right
+        with h5py.File(tmp, "w", libver=("v108", "latest")) as h:
             h.attrs["schema"] = SCHEMA
             h.attrs["vidtrack_version"] = __version__
             h.attrs["scene_hash"] = str(scene_hash or "")
             h.attrs["calibration"] = _json(calibration)
             h.attrs["flags"] = _json({str(k): v for k, v in FLAGS.items()})
-            for v in _VIEWS:
-                if v not in tracks:
-                    continue
+            h.attrs["views"] = _json(_view_order(tracks))
+            for v in _view_order(tracks):
                 tr = tracks[v]
                 g = h.create_group(v)
                 d = tr.data
-                g.create_dataset("frame", data=d["frame"].to_numpy(dtype=np.int64))
+                _dataset(g, "frame", d["frame"].to_numpy(dtype=np.int64))
                 for c in _FLOAT_COLS:
-                    g.create_dataset(c, data=d[c].to_numpy(dtype=np.float64))
-                g.create_dataset("flags", data=d["flags"].to_numpy(dtype=np.int32))
+                    _dataset(g, c, d[c].to_numpy(dtype=np.float64))
+                _dataset(g, "flags", d["flags"].to_numpy(dtype=np.int32))
                 g.attrs["release_frame"] = -1 if tr.release_frame is None else int(
                     tr.release_frame)
                 g.attrs["release_t_s"] = _num(tr.release_t_s)
@@ -182,14 +208,25 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
             if world is not None:
                 g = h.create_group("world")
                 for c in _WORLD_COLS:
-                    g.create_dataset(c, data=world.data[c].to_numpy(dtype=np.float64))
-                g.attrs["reference"] = str(world.reference)
-                g.attrs["t0_s"] = _json(world.t0_s)
-                g.attrs["sync"] = _json(world.sync)
-                g.attrs["x_rms_m"] = _num(world.x_rms_m)
-                g.attrs["x_rms_px"] = _num(world.x_rms_px)
-                g.attrs["x_points"] = int(world.x_points)
-                g.attrs["warnings"] = _json(list(world.warnings))
+                    _dataset(g, c, world.data[c].to_numpy(dtype=np.float64))
+                if calibrated:
+                    # the triangulation's columns (frame, views, flags, reprojection_px_*,
+                    # X_m..Z_m in the calibration's frame) and its summary
+                    for c in world.data.columns:
+                        if c not in _WORLD_COLS:
+                            g.create_dataset(c, data=world.data[c].to_numpy())
+                    g.attrs["kind"] = "calibrated"
+                    g.attrs["columns"] = _json(list(world.data.columns))
+                    g.attrs["summary"] = _json(world.to_dict())
+                else:
+                    g.attrs["kind"] = "orthogonal"
+                    g.attrs["reference"] = str(world.reference)
+                    g.attrs["t0_s"] = _json(world.t0_s)
+                    g.attrs["sync"] = _json(world.sync)
+                    g.attrs["x_rms_m"] = _num(world.x_rms_m)
+                    g.attrs["x_rms_px"] = _num(world.x_rms_px)
+                    g.attrs["x_points"] = int(world.x_points)
+                    g.attrs["warnings"] = _json(list(world.warnings))
     return path
 
 
@@ -241,9 +278,11 @@ def read_tracks(path):
         scene_hash = str(_attr(h, "scene_hash", path, "the root"))
         calibration = json.loads(_attr(h, "calibration", path, "the root"))
         tracks = {}
-        for v in _VIEWS:
+        order = (json.loads(h.attrs["views"]) if "views" in h.attrs
+                 else [v for v in _VIEWS if v in h])
+        for v in order:
             if v not in h:
-                continue
+                raise TrackError(f"{path}: the root lists view {v!r} but there is no /{v}")
             g = h[v]
             cols = {}
             for c in TRACK_COLUMNS:
@@ -267,7 +306,9 @@ def read_tracks(path):
                 scatter_px=float(_attr(g, "scatter_px", path, f"/{v}")),
                 notes=tuple(json.loads(_attr(g, "notes", path, f"/{v}"))))
         world = None
-        if "world" in h:
+        if "world" in h and h["world"].attrs.get("kind") == "calibrated":
+            world = _read_calibrated(h["world"], path)
+        elif "world" in h:
             g = h["world"]
             cols = {}
             for c in _WORLD_COLS:
@@ -287,6 +328,21 @@ def read_tracks(path):
                       scene_hash=scene_hash, calibration=calibration, path=path)
 
 
+def _read_calibrated(g, path):
+    from vidtrack.world.calibrated import CalibratedWorld
+
+    columns = json.loads(_attr(g, "columns", path, "/world"))
+    missing = [c for c in columns if c not in g]
+    if missing:
+        raise TrackError(f"{path}: /world has no dataset {missing[0]!r}")
+    info = json.loads(_attr(g, "summary", path, "/world"))
+    return CalibratedWorld(
+        data=pd.DataFrame({c: g[c][()] for c in columns}), reference=info["reference"],
+        offsets_s=info["offsets_s"], sync=info["sync"], rotation=np.array(info["rotation"]),
+        forward_from=info["forward_from"], median_reprojection_px=info["median_reprojection_px"],
+        flag_threshold_px=info["flag_threshold_px"], warnings=tuple(info["warnings"]))
+
+
 def _flag_names(values):
     from vidtrack.track.tracker import describe_flags
 
@@ -300,13 +356,15 @@ def _flag_names(values):
     return out
 
 
-def tracks_table(tracks):
+def tracks_table(tracks, *, calibrated=False):
     """The views' tracks as one table, the rows of ``tracks.csv``.
 
     Parameters
     ----------
     tracks : dict of str to vidtrack.track.tracker.Track
         ``front`` and/or ``top`` (written in that order).
+    calibrated : bool, keyword-only
+        The views are calibrated cameras: any names, in their order.
 
     Returns
     -------
@@ -325,13 +383,11 @@ def tracks_table(tracks):
     """
     from vidtrack.track.tracker import TRACK_COLUMNS
 
-    _check_tracks(tracks, TRACKS_CSV)
+    _check_tracks(tracks, TRACKS_CSV, calibrated=calibrated)
     columns = list(_TRACKS_CSV_FIRST) + [c for c in TRACK_COLUMNS
                                          if c not in _TRACKS_CSV_FIRST] + ["flag_names"]
     parts = []
-    for v in _VIEWS:
-        if v not in tracks:
-            continue
+    for v in _view_order(tracks):
         d = tracks[v].data
         part = {"view": np.full(len(d), v, dtype=object),
                 "frame": d["frame"].to_numpy(dtype=np.int64),
@@ -347,8 +403,15 @@ def tracks_table(tracks):
 
 def world_table(world):
     """The world track as a table, the rows of ``world.csv``: ``t_s`` (s since the
-    release), ``x_m``, ``y_m``, ``z_m`` (NaN where not measured)."""
-    return pd.DataFrame({c: world.data[c].to_numpy(dtype=np.float64) for c in _WORLD_COLS})
+    release), ``x_m``, ``y_m``, ``z_m`` (NaN where not measured); a calibrated scene's
+    world track adds ``frame``, ``views``, ``flags``, ``reprojection_px_<view>`` and
+    ``X_m``, ``Y_m``, ``Z_m`` (the calibration's frame)."""
+    table = pd.DataFrame({c: world.data[c].to_numpy(dtype=np.float64) for c in _WORLD_COLS})
+    if _is_calibrated(world):
+        for c in world.data.columns:
+            if c not in _WORLD_COLS:
+                table[c] = world.data[c].to_numpy()
+    return table
 
 
 def _write_csv(path, table):
@@ -395,7 +458,8 @@ def write_tables(folder, tracks, world=None, *, missing_only=False):
 
     written = []
     if wanted(folder / TRACKS_CSV):
-        written.append(_write_csv(folder / TRACKS_CSV, tracks_table(tracks)))
+        written.append(_write_csv(folder / TRACKS_CSV,
+                                  tracks_table(tracks, calibrated=_is_calibrated(world))))
     if world is not None and wanted(folder / WORLD_CSV):
         written.append(_write_csv(folder / WORLD_CSV, world_table(world)))
     return written

@@ -254,7 +254,7 @@ def parse_camera_view(ck, name, view, folder, *, fps_range, frames_and_sync):
                 model["calibration"] = text
                 calib = _resolve(folder, text) if folder is not None else Path(text)
                 if folder is not None:
-                    from calibration.camera import load_calibration
+                    from calibration.calibration_file import load_calibration
 
                     if not calib.is_file():
                         ck.fail(f"{path}.calibration", f"names {text!r}, but there is no "

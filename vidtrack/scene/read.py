@@ -34,6 +34,7 @@ from vidtrack.scene.model import (
     _TOP_KEYS,
     _VIEW_KEYS,
     AIR_DENSITY_KG_M3,
+    CAMERA_DISTANCE_RANGE_M,
     CP_TOLERANCE,
     FPS_RANGE,
     GRAVITY_M_S2,
@@ -114,7 +115,7 @@ def _parse_scale(ck, view, path, folder):
     if calib_text is not None:
         calib_path = _resolve(folder, calib_text) if folder is not None else Path(calib_text)
         if folder is not None:
-            from calibration.camera import load_calibration
+            from calibration.calibration_file import load_calibration
 
             if not calib_path.is_file():
                 ck.fail(f"{path}.calibration", f"names {calib_text!r}, but there is no such "
@@ -204,13 +205,15 @@ def _parse_view(ck, name, view, folder):
     origin = ck.pair(view, "origin_px", f"{path}.origin_px", required=True,
                      what="[u, v]: the pixel of the world origin O")
     scale, ruler, m_given, calib_path, calib_text, camera = _parse_scale(ck, view, path, folder)
+    distance = ck.number(view, "camera_distance_m", f"{path}.camera_distance_m", gt=0,
+                         within=(*CAMERA_DISTANCE_RANGE_M, "m"))
 
     frames, sync = _frames_and_sync(ck, view, path)
     source = _resolve(folder, source_text) if folder is not None else Path(source_text)
     return ViewSpec(name=name, source=source, source_text=source_text, fps=fps, axes=axes,
                     origin_px=origin, scale=scale, ruler=ruler, m_per_px_given=m_given,
                     calibration=calib_path, calibration_text=calib_text, camera=camera,
-                    frames=frames, sync_frame=sync)
+                    frames=frames, sync_frame=sync, camera_distance_m=distance)
 
 
 def _example_axes(name):
