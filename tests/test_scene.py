@@ -19,7 +19,8 @@ import tomli_w
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calibration.camera import CameraCalibration, calibration_to_toml, distort_points
+from calibration.calibration_file import calibration_to_toml
+from calibration.camera import CameraCalibration, distort_points
 from calibration.scale import ruler_scale
 from vidtrack.errors import SceneError
 from vidtrack.scene import (

@@ -333,6 +333,8 @@ def _view_table(f, throws):
         f"# `vidtrack frames {f.source_text} OUT --range 0:1`.)",
         "# Optional:",
         _line(f"# frames = [0, {f.frames}]", "the frames to use, [first, end) (default: all)"),
+        _line("# camera_distance_m = 2.0", "camera's distance (m) to the plane "
+              f"{'Z' if v == 'front' else 'Y'} = 0: corrects perspective"),
         _line('# sync_frame = "auto"', "the frame at which t = 0, the release (default: "
               "found)"),
     ]

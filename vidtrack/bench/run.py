@@ -9,7 +9,7 @@ from vidtrack._atomic import atomic_path, write_text
 def available():
     """Benchmarks this installation can run (``track`` appears once its module exists)."""
     names = ["model"]
-    for name in ("track", "fit"):
+    for name in ("track", "fit", "perspective"):
         if importlib.util.find_spec(f"vidtrack.bench.{name}") is not None:
             names.append(name)
     return names
@@ -58,4 +58,13 @@ def bench_fit(out_dir, *, quick=False, progress=None, seeds=None):
                          seeds=tuple(range(1, seeds + 1)) if seeds else None)
 
 
-RUNNERS = {"model": bench_model, "track": bench_track, "fit": bench_fit}
+def bench_perspective(out_dir, *, quick=False, progress=None, seeds=None):
+    """Perspective cameras: calibrated against the orthographic reading, k error and time."""
+    from vidtrack.bench.perspective import run_perspective_bench
+
+    return run_perspective_bench(out_dir, quick=quick, progress=progress,
+                                 seeds=tuple(range(1, seeds + 1)) if seeds else None)
+
+
+RUNNERS = {"model": bench_model, "track": bench_track, "fit": bench_fit,
+           "perspective": bench_perspective}

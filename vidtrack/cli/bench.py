@@ -12,10 +12,15 @@ pick, in one run on this machine, and write a table (TEXT, CSV) and a plot (PNG)
   track  the tracker against decode-only, trackpy.locate and an OpenCV tracker
   fit    k error against frames used (1200..150 fps) and run time, interval coverage
          over seeded runs, and the whole 'vidtrack fit' against plain decoding
+  perspective
+         pinhole cameras 60..120 degrees apart, 1..3 m away: k error read as calibrated
+         cameras, and the square rig at 1.5 and 3 m read orthographically (without and
+         with camera_distance_m) and as calibrated cameras, with the fit's run time
 
 Examples:
   vidtrack bench model
   vidtrack bench model --out results/ --quick
+  vidtrack bench perspective --seeds 3
 """
 
 
@@ -30,8 +35,9 @@ def add_arguments(parser):
     parser.add_argument("--quick", action="store_true",
                         help="fewer tolerances and repeats: a smoke run in seconds")
     parser.add_argument("--seeds", type=int, default=None, metavar="N",
-                        help="fit only: number of seeded synthetic runs (default 10; "
-                             "e.g. --seeds 40 for the interval coverage)")
+                        help="fit and perspective: number of seeded synthetic runs "
+                             "(default 10 for fit, 3 for perspective; e.g. --seeds 40 for "
+                             "the interval coverage)")
 
 
 def run(args):
@@ -50,14 +56,16 @@ def run(args):
 
     from vidtrack.errors import VidtrackError
 
-    if args.seeds is not None and (args.which != "fit" or args.seeds < 1):
-        raise VidtrackError("--seeds goes with 'vidtrack bench fit' and must be >= 1")
+    if args.seeds is not None and (args.which not in ("fit", "perspective")
+                                   or args.seeds < 1):
+        raise VidtrackError("--seeds goes with 'vidtrack bench fit' or 'vidtrack bench "
+                            "perspective' and must be >= 1")
     import importlib.util
 
     if args.which == "model" and importlib.util.find_spec("mpmath") is None:
         raise VidtrackError("vidtrack bench model measures against 50-digit truth and needs "
                             "mpmath: pip install 'vidtrack[bench]'")
-    extra = {"seeds": args.seeds} if args.which == "fit" else {}
+    extra = {"seeds": args.seeds} if args.which in ("fit", "perspective") else {}
     text = RUNNERS[args.which](args.out, quick=args.quick, progress=progress, **extra)
     print(text)
     print(f"\nwritten to {args.out}/")

@@ -6,7 +6,8 @@ HELP = "render a synthetic run (front/top views, ruler, noise, blur) with truth.
 
 DESCRIPTION = """\
 Render a run folder from known coefficients: scene.toml, the footage of a front and/or
-top view of a straw thrown on the quadratic-drag model (k1..k4, Cp, release state) with
+top view (or of two pinhole cameras at any angle: --cameras perspective) of a straw
+thrown on the quadratic-drag model (k1..k4, Cp, release state) with
 a textured background, machine parts, a ruler, the straw riding a rotor tooth before
 release, motion blur, sensor noise and MJPG compression, and truth.json (every
 parameter; per view and frame: time, world position, true centroid in pixels, flags).
@@ -17,6 +18,8 @@ examples:
   vidtrack synth runs/small --size 320x240 --flight-s 0.2 --format png
   vidtrack synth runs/cross --second-straw --views front --codec ffv1
   vidtrack synth runs/rep --throws 10 --seed 7
+  vidtrack synth runs/persp --cameras perspective --camera-distance-m 1.5 --camera-angle-deg 70
+  vidtrack synth runs/square --cameras square --camera-distance-m 1.5
 """
 
 
@@ -48,6 +51,15 @@ def _views(text):
     names = tuple(v.strip() for v in text.split(",") if v.strip())
     if not names or any(v not in ("front", "top") for v in names) or len(set(names)) != len(names):
         raise argparse.ArgumentTypeError(f"expected front, top or front,top, got {text!r}")
+    return names
+
+
+def _dlt_views(text):
+    if text.strip().lower() == "none":
+        return ()
+    names = tuple(v.strip() for v in text.split(",") if v.strip())
+    if not names or any(v not in ("cam1", "cam2") for v in names) or len(set(names)) != len(names):
+        raise argparse.ArgumentTypeError(f"expected cam1, cam2, cam1,cam2 or none, got {text!r}")
     return names
 
 
@@ -119,6 +131,29 @@ def add_arguments(parser):
                    help="exposure time / frame interval, 0 = no motion blur (0.5)")
     g.add_argument("--exposure-samples", type=int, default=8,
                    help="renders averaged per frame (8)")
+    g = p.add_argument_group("pinhole cameras (docs/synth.md, \"Perspective cameras\")")
+    g.add_argument("--cameras", default="orthographic",
+                   choices=("orthographic", "perspective", "square"),
+                   help="orthographic (default): ideal cameras square to the axes; "
+                        "perspective: pinhole cameras cam1, cam2 at an angle, a calibrated "
+                        "scene; square: pinhole cameras square to the axes, a front/top "
+                        "scene with camera_distance_m")
+    g.add_argument("--camera-distance-m", type=float, default=2.0,
+                   help="perspective: from each camera to the middle of the flight; square: "
+                        "to the plane Z = 0 / Y = 0, m (2.0; 1 to 3 typical)")
+    g.add_argument("--camera-angle-deg", type=float, default=90.0,
+                   help="perspective: the angle between the cameras' optical axes, degrees "
+                        "(90; 60 to 120 typical)")
+    g.add_argument("--distortion", type=_floats(5, "k1,k2,p1,p2,k3"), default=None,
+                   help="perspective: the lens of the views written as projection, OpenCV's "
+                        "k1,k2,p1,p2,k3 (default: none), e.g. -0.12,0.03,0.0005,-0.0003,0")
+    g.add_argument("--dlt-views", type=_dlt_views, default=("cam2",),
+                   help="perspective: views written as an 11-parameter DLT with "
+                        "pixel_origin bottom-left (no lens): cam1, cam2, cam1,cam2 or none "
+                        "(default cam2)")
+    g.add_argument("--no-camera-distance-in-scene", action="store_true",
+                   help="square: leave camera_distance_m out of scene.toml (perspective "
+                        "then not corrected)")
     g = p.add_argument_group("scene and sensor")
     g.add_argument("--texture", type=float, default=0.06,
                    help="background texture standard deviation, fraction of full scale (0.06)")
@@ -177,7 +212,10 @@ def spec_from_args(args):
         output_format=args.format, video_codec=args.codec, jpeg_quality=args.quality,
         bit_depth=args.bit_depth, cine_packed=args.cine_packed, throws=args.throws,
         seed=args.seed, scale_in_scene="m_per_px" if args.no_ruler else "ruler",
-        sync_in_scene=args.sync_in_scene)
+        sync_in_scene=args.sync_in_scene, cameras=args.cameras,
+        camera_distance_m=args.camera_distance_m, camera_angle_deg=args.camera_angle_deg,
+        distortion=args.distortion, dlt_views=args.dlt_views,
+        camera_distance_in_scene=not args.no_camera_distance_in_scene)
 
 
 def run(args):
@@ -190,8 +228,10 @@ def run(args):
     if args.json:
         print(json.dumps(result.to_dict(), indent=1))
         return 0
-    views = ", ".join(f"{v} {w}x{h} at {result.m_per_px[v] * 1000:.3g} mm/px, release at "
-                      f"frame {result.release_frame[v]}"
+    at = {"orthographic": "", "perspective": " (at the flight's middle)",
+          "square": " (at the scale plane)"}[spec.cameras]
+    views = ", ".join(f"{v} {w}x{h} at {result.m_per_px[v] * 1000:.3g} mm/px{at}, release "
+                      f"at frame {result.release_frame[v]}"
                       for v, (w, h) in result.size_px.items())
     throws = f", {result.throws} throws" if result.throws > 1 else ""
     print(f"wrote {result.out_dir}: {result.frames} frames per view at {spec.fps:g} fps "

@@ -33,10 +33,13 @@ CP_TOLERANCE = 0.01
 #: Capture rates accepted, frames/s: a frame every 10 s up to 10 million frames/s (the
 #: fastest cameras film a few million); outside it a rate is a typo (1e-300, 1e300).
 FPS_RANGE = (0.1, 1e7)
+#: Camera distances accepted (``camera_distance_m``), m: a camera nearer than 1 cm or
+#: farther than 100 km from the throw is a typo.
+CAMERA_DISTANCE_RANGE_M = (0.01, 1e5)
 
 _TOP_KEYS = ("schema", "run", "factors", "physics", "straw", "machine", "world", "views")
 _VIEW_KEYS = ("source", "fps", "axes", "origin_px", "ruler", "m_per_px", "calibration",
-              "frames", "sync_frame")
+              "camera_distance_m", "frames", "sync_frame")
 
 
 # --------------------------------------------------------------------------- results
@@ -172,6 +175,12 @@ class ViewSpec:
         Half-open range ``(first, end)`` of 0-based frame indices to use; None: all.
     sync_frame : int or str
         Frame of this view at which t = 0, or ``"auto"`` (find it).
+    camera_distance_m : float or None
+        Distance (m) from the camera's centre to the plane where the scale holds (the
+        plane through the world origin parallel to the image: Z = 0 for ``front``,
+        Y = 0 for ``top``); with it the world stage corrects the perspective (a point
+        nearer the camera looks larger) by the depth the other view measures. None:
+        not corrected.
     """
 
     name: str
@@ -188,6 +197,7 @@ class ViewSpec:
     camera: object = None
     frames: tuple | None = None
     sync_frame: object = "auto"
+    camera_distance_m: float | None = None
 
     @property
     def m_per_px(self):
@@ -204,7 +214,8 @@ class ViewSpec:
         from calibration.views import ViewMapping
 
         return ViewMapping(axes=self.axes, origin_px=self.origin_px,
-                           m_per_px=self.m_per_px, camera=self.camera)
+                           m_per_px=self.m_per_px, camera=self.camera,
+                           camera_distance_m=self.camera_distance_m)
 
     def source_in(self, folder):
         """The source of this view inside ``folder`` (a throw's subfolder).
@@ -231,6 +242,8 @@ class ViewSpec:
             out["m_per_px"] = self.m_per_px_given
         if self.calibration_text is not None:
             out["calibration"] = self.calibration_text
+        if self.camera_distance_m is not None:
+            out["camera_distance_m"] = self.camera_distance_m
         if self.frames is not None:
             out["frames"] = list(self.frames)
         out["sync_frame"] = self.sync_frame

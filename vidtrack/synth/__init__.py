@@ -8,6 +8,9 @@ compression) from known coefficients, with ``truth.json`` beside it. The modules
 - ``motion``: what moves where at time t, in metres: the throws, :func:`straw_pose`,
   :func:`second_straw_state`, the rotor's rate;
 - ``_views``: each view's framing (scale, origin, ruler) and its static image;
+- ``_cameras``: pinhole cameras (``cameras = "perspective"`` at any angle, ``"square"``
+  the orthogonal rig at a finite distance): placement, framing, the straw in
+  perspective, the lens, their truth and scene;
 - ``_renderer``: the frames of a view: poses in pixels, motion blur, anti-aliasing, noise;
 - ``_raster``: the anti-aliased shapes, texture, compositing and sensor noise it draws with;
 - ``_writers``: the footage: AVI, png folders, Phantom .cine;

@@ -151,7 +151,7 @@ class _ViewRenderer:
     def frame_float(self, i):
         """The noiseless frame i (float, [0, 1]) and its coverage facts."""
         spec, track = self.spec, self.track
-        shape = (self.view.height, self.view.width)
+        shape = self.static.shape
         kk = track.kk
         per_sample = [track.layers(i, j) for j in range(kk)]
         rois = {}
@@ -175,7 +175,7 @@ class _ViewRenderer:
                                                         cache=self._cache)
                 acc += painted
                 for key, (sub, c) in covers.items():
-                    name = "blade" if key in ("tooth0", "tooth1", "hub") else key
+                    name = "blade" if key in ("tooth0", "tooth1", "hub", "shaft") else key
                     if name not in cov:
                         cov[name] = np.zeros(roi.shape)
                     cov[name][sub.slice_in(roi)] += c

@@ -1,7 +1,8 @@
 """Synthetic runs with known truth: ``vidtrack synth``.
 
 :func:`render_run` renders a run folder as SPEC.md describes it (``scene.toml``, the
-footage of a ``front`` and/or ``top`` view, optionally ``throws/01 ..``) and writes
+footage of a ``front`` and/or ``top`` view, or of the pinhole cameras of
+:mod:`~vidtrack.synth._cameras`, optionally ``throws/01 ..``) and writes
 ``truth.json``: every parameter, and for every frame of every view the time, the world
 position of the straw and the true pixel centroid of its silhouette, with flags. It
 returns a :class:`SynthRun`, what was written.
@@ -29,7 +30,7 @@ from vidtrack.synth._renderer import _ViewRenderer, _ViewTrack
 from vidtrack.synth._views import _frame_times, _frame_view, _static_image
 from vidtrack.synth._writers import _source_name, _write_avi, _write_cine, _write_png
 from vidtrack.synth.motion import _make_throws, second_straw_state
-from vidtrack.synth.spec import VIEW_NAMES, SynthSpec, _fail
+from vidtrack.synth.spec import CAMERA_VIEW_NAMES, VIEW_NAMES, SynthSpec, _fail
 from vidtrack.synth.truth import (_CONVENTIONS, TRUTH_FILE, TRUTH_SCHEMA, _release_frame_of,
                                   _throw_truth, _truth_text, _view_truth)
 
@@ -52,7 +53,8 @@ class SynthRun:
     size_px : dict
         View -> (width, height).
     m_per_px : dict
-        View -> scale.
+        View -> scale (pinhole cameras: at the scale plane of the square rig, at the
+        flight's middle for cameras at an angle).
     release_frame : dict
         View -> index of the first frame with t >= 0.
     files : tuple of str
@@ -94,6 +96,14 @@ def _scene_dict(spec, views, run_name, release):
            "straw": {"cp_s_per_m": spec.cp_s_per_m},
            "machine": {"speed_kmh": spec.speed_kmh},
            "views": {}}
+    if spec.cameras != "orthographic":
+        from vidtrack.synth._cameras import camera_scene_views
+
+        world, out["views"] = camera_scene_views(spec, views, _source_name, release,
+                                                 _plain_number)
+        if world is not None:
+            out["world"] = world
+        return out
     for view in views:
         m = view.mapping
         entry = {"source": _source_name(spec, view.name), "fps": _plain_number(spec.fps),
@@ -126,7 +136,7 @@ MARKER_FILE = "vidtrack-synth.toml"
 def _known_names():
     """Top-level entries synth can write: the only ones a marker may hand over."""
     out = {"scene.toml", TRUTH_FILE, "throws", MARKER_FILE}
-    for view in VIEW_NAMES:
+    for view in VIEW_NAMES + CAMERA_VIEW_NAMES:
         out |= {view, f"{view}.avi", f"{view}.cine"}
     return out
 
@@ -200,7 +210,7 @@ def _top_names(spec):
     if spec.throws > 1:
         footage = {"throws"}
     else:
-        footage = {_source_name(spec, view) for view in spec.views}
+        footage = {_source_name(spec, view) for view in spec.view_names}
     return footage | {"scene.toml", TRUTH_FILE}
 
 
@@ -284,8 +294,17 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
 
     throws = _make_throws(spec)
     seconds = [second_straw_state(spec, th) if spec.second_straw else None for th in throws]
-    views = [_frame_view(spec, name, throws) for name in VIEW_NAMES if name in spec.views]
-    statics = {v.name: _static_image(spec, v) for v in views}
+    pinhole = spec.cameras != "orthographic"
+    if pinhole:
+        from vidtrack.synth import _cameras
+
+        views = _cameras.camera_views(spec, throws)
+        statics = {v.name: _cameras.camera_static(spec, v) for v in views}
+        frame = (_cameras._calibration_frame(views) if spec.cameras == "perspective"
+                 else None)
+    else:
+        views = [_frame_view(spec, name, throws) for name in VIEW_NAMES if name in spec.views]
+        statics = {v.name: _static_image(spec, v) for v in views}
     n = spec.n_frames
     release = {v.name: _release_frame_of(_frame_times(spec, v.delay_s)) for v in views}
 
@@ -299,6 +318,10 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
     head = {"schema": TRUTH_SCHEMA, "generator": "vidtrack synth",
             "vidtrack_version": __version__, "run": run_name, "spec": spec.to_dict(),
             "conventions": _CONVENTIONS}
+    if pinhole:
+        head["conventions"] = {**_CONVENTIONS, **_cameras.CONVENTIONS}
+        if frame is not None:
+            head["calibration_frame"] = _cameras.calibration_truth(views)
     try:
         summaries = []
         for ti, (throw, second) in enumerate(zip(throws, seconds)):
@@ -306,8 +329,13 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
             folder.mkdir(parents=True, exist_ok=True)
             view_truth = {}
             for view in views:
-                track = _ViewTrack(spec, view, throw, second)
-                renderer = _ViewRenderer(spec, view, track, ti, statics[view.name])
+                if pinhole:
+                    track = _cameras._CameraTrack(spec, view, throw, second)
+                    renderer = _cameras._CameraRenderer(spec, view, track, ti,
+                                                        statics[view.name])
+                else:
+                    track = _ViewTrack(spec, view, throw, second)
+                    renderer = _ViewRenderer(spec, view, track, ti, statics[view.name])
                 target = folder / _source_name(spec, view.name)
                 if spec.output_format == "avi":
                     _write_avi(target, renderer, n, spec, bar.update)
@@ -315,8 +343,12 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
                     _write_png(target, renderer, n, spec, bar.update)
                 else:
                     _write_cine(target, renderer, n, spec, release[view.name], bar.update)
-                view_truth[view.name] = _view_truth(spec, view, track, renderer,
-                                                    _source_name(spec, view.name))
+                if pinhole:
+                    view_truth[view.name] = _cameras.camera_view_truth(
+                        spec, view, track, renderer, _source_name(spec, view.name), frame)
+                else:
+                    view_truth[view.name] = _view_truth(spec, view, track, renderer,
+                                                        _source_name(spec, view.name))
             truth = {**head, "throw": ti + 1, "truth": _throw_truth(spec, throw, second),
                      "views": view_truth}
             if spec.throws == 1:
@@ -358,6 +390,7 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
                     truth_path=out_dir / TRUTH_FILE, views=tuple(v.name for v in views),
                     throws=spec.throws, frames=n,
                     size_px={v.name: (v.width, v.height) for v in views},
-                    m_per_px={v.name: v.mapping.m_per_px for v in views},
+                    m_per_px={v.name: (v.m_per_px if pinhole else v.mapping.m_per_px)
+                              for v in views},
                     release_frame=release, files=tuple(files), bytes_written=total,
                     elapsed_s=time.perf_counter() - started, spec=spec)

@@ -14,9 +14,21 @@ from calibration.scale import M_PER_PX_RANGE
 from vidtrack.errors import VidtrackError
 from vidtrack.scene.model import FPS_RANGE
 
-__all__ = ["SynthSpec", "VIEW_NAMES", "FORMATS", "CODECS"]
+__all__ = ["SynthSpec", "VIEW_NAMES", "FORMATS", "CODECS", "CAMERA_MODELS",
+           "CAMERA_VIEW_NAMES"]
 
 VIEW_NAMES = ("front", "top")
+#: How the views are imaged: ideal orthographic cameras square to the axes (default),
+#: pinhole cameras at an angle (``perspective``, a calibrated scene), or pinhole cameras
+#: square to the axes (``square``, a front/top scene with a scale at the plane Z = 0 or
+#: Y = 0 and the camera's distance).
+CAMERA_MODELS = ("orthographic", "perspective", "square")
+#: The views of ``cameras = "perspective"``.
+CAMERA_VIEW_NAMES = ("cam1", "cam2")
+#: The SynthSpec fields of the pinhole cameras: left out of ``to_dict`` (and so of
+#: truth.json) for orthographic cameras, which they do not concern.
+CAMERA_FIELDS = ("cameras", "camera_distance_m", "camera_angle_deg", "distortion",
+                 "dlt_views", "camera_distance_in_scene")
 #: Most frames rendered per view (and most frames of release and delay): 83 s at
 #: 1200 fps, far beyond any throw; a larger count is a typo that would fill the disk.
 MAX_FRAMES = 100_000
@@ -94,6 +106,23 @@ class SynthSpec:
         [42]; ``run_name`` None = the output folder's name [None]; ``scale_in_scene``
         "ruler" | "m_per_px" ["ruler"]; ``sync_in_scene`` write each view's release
         frame as ``sync_frame`` (else "auto") [False].
+    Pinhole cameras (docs/synth.md, "Perspective cameras")
+        ``cameras`` "orthographic" | "perspective" | "square" ["orthographic"]:
+        "perspective" renders two pinhole cameras ``cam1``, ``cam2`` at
+        ``camera_distance_m`` from the middle of the flight, ``camera_angle_deg`` apart
+        (their optical axes; both perpendicular to X, symmetric about the direction
+        45 degrees above +Z), and writes a calibrated scene (``[world]``, ``projection``
+        or ``dlt``); "square" renders pinhole cameras looking square onto the ``front``
+        and ``top`` planes (``front_axes``, ``top_axes``) from ``camera_distance_m``
+        beyond the plane Z = 0 / Y = 0, and writes a front/top scene with the scale at
+        that plane (ruler or ``m_per_px``) and, with ``camera_distance_in_scene``, the
+        distance. ``camera_distance_m`` [2.0]; ``camera_angle_deg`` [90];
+        ``distortion`` (k1, k2, p1, p2, k3) of the lens of the views written as
+        ``projection`` (perspective only), None = no lens [None]; ``dlt_views`` the
+        perspective views written as an 11-parameter DLT with ``pixel_origin =
+        "bottom-left"`` (no lens) [("cam2",)]; ``camera_distance_in_scene`` [True].
+        The focal length frames the flight in the image (and, with ``square``,
+        ``m_per_px`` = distance / focal length at the scale plane when given).
     """
 
     k: tuple = (2.2, 2.5, 4.6, 21.3)
@@ -148,6 +177,12 @@ class SynthSpec:
     run_name: str | None = None
     scale_in_scene: str = "ruler"
     sync_in_scene: bool = False
+    cameras: str = "orthographic"
+    camera_distance_m: float = 2.0
+    camera_angle_deg: float = 90.0
+    distortion: tuple | None = None
+    dlt_views: tuple = ("cam2",)
+    camera_distance_in_scene: bool = True
 
     def __post_init__(self):
         _validate(self)
@@ -164,9 +199,17 @@ class SynthSpec:
         """Machine speed v1 in m/s."""
         return self.speed_kmh / 3.6
 
+    @property
+    def view_names(self):
+        """The views rendered: ``views`` (front, top), or cam1, cam2 with perspective
+        cameras."""
+        if self.cameras == "perspective":
+            return CAMERA_VIEW_NAMES
+        return tuple(v for v in VIEW_NAMES if v in self.views)
+
     def view_size(self, view):
-        """(width, height) of ``view`` in pixels."""
-        if view == "top" and self.top_size_px is not None:
+        """(width, height) of ``view`` in pixels (cam2 as top, cam1 as front)."""
+        if view in ("top", "cam2") and self.top_size_px is not None:
             return tuple(int(v) for v in self.top_size_px)
         return tuple(int(v) for v in self.size_px)
 
@@ -174,8 +217,9 @@ class SynthSpec:
         return tuple(self.front_axes if view == "front" else self.top_axes)
 
     def to_dict(self):
-        """Every parameter, JSON-ready."""
-        return {f.name: _jsonable(getattr(self, f.name)) for f in fields(self)}
+        """Every parameter, JSON-ready (the pinhole cameras' only with such cameras)."""
+        return {f.name: _jsonable(getattr(self, f.name)) for f in fields(self)
+                if self.cameras != "orthographic" or f.name not in CAMERA_FIELDS}
 
 
 def _jsonable(value):
@@ -332,4 +376,45 @@ def _validate(s):
         _fail("scale_in_scene 'ruler' needs the ruler drawn (draw_ruler); use m_per_px")
     if s.run_name is not None and (not isinstance(s.run_name, str) or not s.run_name.strip()):
         _fail(f"run_name must be a non-empty string, got {s.run_name!r}")
+    _validate_cameras(s)
+
+
+#: Accepted camera distances (m) and angles between the cameras (degrees).
+CAMERA_DISTANCE_RANGE_M = (0.3, 30.0)
+CAMERA_ANGLE_RANGE_DEG = (20.0, 160.0)
+
+
+def _validate_cameras(s):
+    if s.cameras not in CAMERA_MODELS:
+        _fail(f"cameras must be one of {', '.join(CAMERA_MODELS)}, got {s.cameras!r}")
+    low, high = CAMERA_DISTANCE_RANGE_M
+    _number("camera_distance_m", s.camera_distance_m, ge=low, le=high)
+    low, high = CAMERA_ANGLE_RANGE_DEG
+    _number("camera_angle_deg", s.camera_angle_deg, ge=low, le=high)
+    if s.distortion is not None:
+        d = _vector("distortion (k1, k2, p1, p2, k3)", s.distortion, 5)
+        if np.any(np.abs(d) > 10):
+            _fail(f"distortion coefficients must be within +-10, got {list(s.distortion)}")
+    if isinstance(s.dlt_views, str) or any(v not in CAMERA_VIEW_NAMES for v in s.dlt_views) \
+            or len(set(s.dlt_views)) != len(s.dlt_views):
+        _fail(f"dlt_views must be some of {', '.join(CAMERA_VIEW_NAMES)} (no repeats), "
+              f"got {s.dlt_views!r}")
+    if s.cameras == "orthographic":
+        if s.distortion is not None:
+            _fail("distortion needs cameras = perspective (orthographic cameras have no lens)")
+        return
+    if tuple(s.views) != VIEW_NAMES:
+        _fail(f"cameras = {s.cameras} renders two cameras: views must be front,top (the "
+              f"default), got {','.join(s.views)}")
+    if s.cameras == "square":
+        if s.distortion is not None:
+            _fail("distortion goes with cameras = perspective; the square rig's scene "
+                  "(front/top with a scale) has no lens")
+        return
+    if s.m_per_px is not None:
+        _fail("m_per_px goes with orthographic or square cameras; perspective cameras are "
+              "framed by their focal length")
+    if s.distortion is not None and len(s.dlt_views) == len(CAMERA_VIEW_NAMES):
+        _fail("distortion is the lens of the views written as projection, but dlt_views "
+              "names every view (a DLT has no lens); leave one view out of dlt_views")
 

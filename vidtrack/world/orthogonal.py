@@ -1,6 +1,6 @@
 """The two-view merge: both tracks on one time base, the shared X checked, the 3-D track.
 
-The ``front`` view sees world X and Y, the ``top`` view X and Z (SPEC "Views"). Both see
+The ``front`` view sees world X and Y, the ``top`` view X and Z (docs/reference.md). Both see
 X, which is how they are put on one clock and checked against each other:
 
 1. **Time zero.** A view's ``sync`` is a frame index (the frame at which t = 0, from
@@ -28,10 +28,16 @@ X, which is how they are put on one clock and checked against each other:
    usable frames at t >= 0 no more than 2 of its frames apart. NaN where not measured;
    with one view its missing axis is NaN throughout.
 
+Perspective (:mod:`vidtrack.world.parallax`): once the views are on one clock, a view
+whose mapping has ``camera_distance_m`` has each point's scale corrected by its depth,
+which the other view measures (before the check of step 3); without it the notes say
+that perspective is not corrected and give the flight's depth range.
+
 Only usable points (flags 0) enter: flagged frames never become world coordinates, and
 no point of any view from before its t = 0 reaches the world track.
 """
 
+import logging
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -39,11 +45,16 @@ import pandas as pd
 
 from vidtrack.errors import TrackError
 from vidtrack.track.tracker import PRE_RELEASE
+from vidtrack.world.parallax import correct_parallax
+
+log = logging.getLogger(__name__)
 
 __all__ = ["WorldTrack", "merge_tracks", "view_world", "WORLD_COLUMNS"]
 
 #: Columns of :attr:`WorldTrack.data`.
 WORLD_COLUMNS = ("t_s", "x_m", "y_m", "z_m")
+#: Most passes of finding an offset again on the perspective-corrected shared X.
+_RESYNC_PASSES = 4
 _AXES = ("x", "y", "z")
 
 
@@ -55,7 +66,7 @@ class WorldTrack:
     ----------
     data : pandas.DataFrame
         Columns ``t_s`` (s since the release, t = 0), ``x_m``, ``y_m``, ``z_m`` (world
-        frame of SPEC.md, m; NaN where not measured).
+        frame, m; NaN where not measured).
     t0_s : dict
         View -> time in that view's source clock (``Track.data["t_s"]``) that is t = 0.
     sync : dict
@@ -86,6 +97,14 @@ class WorldTrack:
     x_points: int = 0
     warnings: tuple = ()
     tracks: dict | None = None
+
+    def __repr__(self):
+        measured = "/".join(str(int(np.count_nonzero(np.isfinite(self.data[f"{a}_m"]))))
+                            if f"{a}_m" in self.data else "0" for a in _AXES)
+        x = "" if self.x_rms_m is None else f", x_rms_mm={1000 * self.x_rms_m:.3g}"
+        return (f"WorldTrack(rows={len(self.data)}, reference={self.reference!r}, "
+                f"views={', '.join(self.t0_s)}, measured x/y/z={measured}{x}, "
+                f"warnings={len(self.warnings)})")
 
     def to_dict(self):
         """A JSON-ready summary (not the rows)."""
@@ -160,7 +179,10 @@ def _shared_x_offset(ref_w, t0_ref, other_w, other_step, *, min_overlap, name, s
     if tr.size < min_overlap or to.size < min_overlap:
         raise TrackError(f"view {name}: too few usable points to find its offset from the "
                          f"shared X ({to.size} here, {tr.size} in the reference view; "
-                         f"need {min_overlap}); give views.{name}.sync_frame")
+                         f"need {min_overlap}): the straw was tracked in too few frames "
+                         "('vidtrack -v fit' says how many each view tracked; a straw "
+                         f"thinner than a pixel is lost); give views.{name}.sync_frame if "
+                         "the tracks are right")
     max_step = 2.5 * other_step
 
     def cost(t0):
@@ -187,11 +209,20 @@ def _shared_x_offset(ref_w, t0_ref, other_w, other_step, *, min_overlap, name, s
     grid = np.arange(lo, hi + 1e-12, 0.25 * other_step)
     costs = costs_of(grid)
     if not np.isfinite(costs).any():
-        raise TrackError(f"view {name}: its usable frames never overlap the reference view's "
-                         "in time; give views.<view>.sync_frame")
+        raise TrackError(
+            f"view {name}: its {to.size} usable points (t = {to[0]:.4g}..{to[-1]:.4g} s on "
+            f"its clock) never overlap the reference view's {tr.size} by {min_overlap} "
+            "points at any offset: too few frames were tracked in one of the views to "
+            "put them on one clock ('vidtrack -v fit' says how many frames each view "
+            "tracked; a straw thinner than a pixel is lost); give "
+            f"views.{name}.sync_frame if the tracks are right")
     k = int(np.argmin(costs))
-    res = minimize_scalar(cost, bounds=(grid[k] - 0.5 * other_step, grid[k] + 0.5 * other_step),
-                          method="bounded", options={"xatol": 1e-4 * other_step})
+    # the cost is infinite where too few points overlap: Brent's parabola through such
+    # points is simply rejected (numpy's warning about inf - inf says nothing more)
+    with np.errstate(invalid="ignore", over="ignore"):
+        res = minimize_scalar(cost, bounds=(grid[k] - 0.5 * other_step,
+                                            grid[k] + 0.5 * other_step),
+                              method="bounded", options={"xatol": 1e-4 * other_step})
     t0 = float(res.x) if np.isfinite(res.fun) and res.fun <= costs[k] else float(grid[k])
     xi = _interp_gapless(tr + t0, to, xo, max_step)
     ok = np.isfinite(xi)
@@ -282,6 +313,26 @@ def merge_tracks(tracks, mappings, *, sync=None, min_overlap=10):
     merged = {v: _flag_before_t0(tracks[v], t0[v], how[v], steps[v], ref=ref,
                                  ref_how=how[ref]) for v in names}
     world = {v: view_world(merged[v], mappings[v]) for v in names}
+    # perspective (vidtrack.world.parallax): a view with camera_distance_m scaled by the
+    # other view's depth; an offset found on the shared X is found again on the corrected
+    # X (uncorrected, the two views see X at different scales), and the views corrected
+    # again on the new clock, until the offset moves by less than a hundredth of a frame
+    world, parallax_notes = correct_parallax(world, merged, mappings, t0, steps)
+    perspective = any(mappings[v].camera_distance_m is not None for v in names)
+    for _ in range(_RESYNC_PASSES if perspective and auto else 0):
+        moved = 0.0
+        for v in auto:
+            new = _shared_x_offset(world[ref], t0[ref], world[v], steps[v],
+                                   min_overlap=min_overlap, name=v,
+                                   scale=max(mappings[ref].m_per_px, mappings[v].m_per_px))
+            moved, t0[v] = max(moved, abs(new - t0[v]) / steps[v]), new
+        merged = {v: _flag_before_t0(tracks[v], t0[v], how[v], steps[v], ref=ref,
+                                     ref_how=how[ref]) for v in names}
+        world = {v: view_world(merged[v], mappings[v]) for v in names}
+        world, parallax_notes = correct_parallax(world, merged, mappings, t0, steps)
+        if moved < 0.01:
+            break
+    warnings += parallax_notes
     # the check of the shared X
     x_rms_m = x_rms_px = None
     x_points = 0
@@ -305,6 +356,11 @@ def merge_tracks(tracks, mappings, *, sync=None, min_overlap=10):
         else:
             warnings.append("the views have no usable points at common times: X not checked")
     data = _world_rows(merged, world, t0, ref, names, steps)
+    log.info("world track: %d rows from %s (reference %s; t = 0 by %s)", len(data),
+             ", ".join(names), ref, ", ".join(f"{n}: {h}" for n, h in how.items()))
+    for w in warnings:
+        # kept in the result (fit.json notes, the report); shown with vidtrack -v
+        log.info("world track: %s", w)
     return WorldTrack(data=data, t0_s=t0, sync=how, reference=ref, x_rms_m=x_rms_m,
                       x_rms_px=x_rms_px, x_points=x_points, warnings=tuple(warnings),
                       tracks=merged)

@@ -1,0 +1,196 @@
+"""``vidtrack bench perspective``: k error and run time of perspective cameras, read as
+calibrated cameras or with the orthographic approximation.
+
+Synthetic runs (``vidtrack synth``, known k; noise and MJPG compression on, as by
+default) filmed by pinhole cameras, several seeds each:
+
+- **cameras at an angle** (``--cameras perspective``): 60, 90 and 120 degrees apart,
+  1, 2 and 3 m from the middle of the flight, cam1 with a lens (``LENS``), cam2 a DLT
+  counted from the bottom-left: read as calibrated cameras (the scene synth writes);
+- **the square rig** (``--cameras square``, the front and top cameras square to the
+  axes) 1.5 m and 3 m from the planes Z = 0 and Y = 0, the same footage read three ways:
+  ``orthographic`` (a scale at the plane, no ``camera_distance_m``: perspective not
+  corrected), ``orthographic + camera_distance`` (the scene synth writes) and
+  ``calibrated`` (the cameras' projection matrices from truth.json in a ``[world]``
+  scene). The orthographic readings are fitted with ``accept_disagreement`` (the
+  uncorrected one fails the cross-checks, as it should: the table shows what it would
+  give).
+
+Every reading is a whole ``vidtrack fit`` of the run in process (tracking, merge or
+triangulation, fit; no report), timed by wall clock. The straw is 0.12 m x 0.02 m: a
+longer straw slanted in depth shows its silhouette's centroid off its projected centre
+(up to f L^2 / (8 depth^2) px), which biases the calibrated reading (docs/synth.md).
+Benchmarks are not tests: nothing here asserts a time.
+"""
+
+import json
+import tempfile
+import time
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from vidtrack._atomic import atomic_path, write_text
+
+K_NAMES = ("k1", "k2", "k3", "k4")
+LENS = (-0.12, 0.03, 0.0005, -0.0003, 0.0)
+#: (rig, cameras, angle between the cameras in degrees, distance in m)
+RIGS = (("60 deg, 1.0 m", "perspective", 60.0, 1.0),
+        ("90 deg, 2.0 m", "perspective", 90.0, 2.0),
+        ("120 deg, 3.0 m", "perspective", 120.0, 3.0),
+        ("square, 1.5 m", "square", 90.0, 1.5),
+        ("square, 3.0 m", "square", 90.0, 3.0))
+READINGS = {"perspective": ("calibrated",),
+            "square": ("orthographic", "orthographic + camera_distance", "calibrated")}
+#: Frame sizes: perspective views frame the flight with the rotor in a 4:3 image; the
+#: square rig's as the sample run's (datasets/run42).
+SIZES = {"perspective": ((400, 300), None), "square": ((400, 184), (400, 112))}
+
+
+def _spec(cameras, angle, distance, seed):
+    from vidtrack.synth import SynthSpec
+
+    size, top = SIZES[cameras]
+    extra = {"distortion": LENS} if cameras == "perspective" else {}
+    return SynthSpec(cameras=cameras, camera_angle_deg=angle, camera_distance_m=distance,
+                     size_px=size, top_size_px=top, flight_s=0.3, straw_length_m=0.12,
+                     straw_diameter_m=0.02, seed=seed, **extra)
+
+
+def _scene_data(run):
+    return tomllib.loads((run / "scene.toml").read_text(encoding="utf-8"))
+
+
+def _absolute_sources(data, run):
+    for view in data["views"].values():
+        view["source"] = str((run / view["source"]).resolve())
+    return data
+
+
+def _reading_scene(run, reading, truth):
+    """The scene of one reading of a square rig's footage (sources by absolute path)."""
+    data = _absolute_sources(_scene_data(run), run)
+    if reading == "orthographic":
+        for view in data["views"].values():
+            view.pop("camera_distance_m", None)
+    elif reading == "calibrated":
+        data["world"] = {"up": [0.0, 1.0, 0.0], "forward": [1.0, 0.0, 0.0]}
+        for name, view in data["views"].items():
+            cam = truth["views"][name]["camera"]
+            keep = {k: view[k] for k in ("source", "fps", "sync_frame") if k in view}
+            data["views"][name] = {**keep, "projection": cam["P"]}
+    return data
+
+
+def _fit(folder):
+    """One whole fit of a run folder in process: (record, wall time). The warnings of
+    accepted disagreements are not logged (the table counts them)."""
+    import logging
+
+    from vidtrack.run.pipeline import FitOptions, fit_run
+
+    log = logging.getLogger("vidtrack.run")
+    level = log.level
+    log.setLevel(logging.ERROR)
+    try:
+        t0 = time.perf_counter()
+        record = fit_run(folder, FitOptions(force=True, report=False,
+                                            accept_disagreement=True))
+        return record, time.perf_counter() - t0
+    finally:
+        log.setLevel(level)
+
+
+def _row(rig, cameras, angle, distance, reading, seed, record, elapsed, truth_k):
+    row = {"rig": rig, "cameras": cameras, "angle_deg": angle, "distance_m": distance,
+           "reading": reading, "seed": seed}
+    for k in K_NAMES:
+        c = record["coefficients"][k]
+        row[f"{k}_error_pct"] = (100.0 * (c["value"] / truth_k[k] - 1.0)
+                                 if c.get("determined", True) and c["value"] is not None
+                                 else np.nan)
+    world = record.get("world") or {}
+    row["x_rms_px"] = world.get("x_rms_px")
+    row["reprojection_px"] = world.get("median_reprojection_px")
+    row["findings"] = ",".join(sorted({c["check"] for c in record.get("checks") or []}))
+    row["fit_s"] = elapsed
+    return row
+
+
+def run_perspective_bench(out_dir, *, quick=False, seeds=None, progress=None):
+    """Render and fit every rig and reading; write bench_perspective.csv and .txt.
+
+    Returns the printable table: per rig and reading, the mean error of k1..k4 (% of
+    truth) over the seeds with its standard deviation, and the median fit time.
+    """
+    from vidtrack.errors import INPUT_ERRORS
+    from vidtrack.scene import write_scene
+    from vidtrack.synth import render_run
+
+    out_dir = Path(out_dir)
+    seeds = seeds or ((1,) if quick else (1, 2, 3))
+    rows, failures, renders = [], [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        for rig, cameras, angle, distance in RIGS:
+            for seed in seeds:
+                run = Path(tmp) / f"{cameras}-{angle:g}-{distance:g}-{seed}"
+                t0 = time.perf_counter()
+                render_run(run, _spec(cameras, angle, distance, seed))
+                renders.append(time.perf_counter() - t0)
+                truth = json.loads((run / "truth.json").read_text())
+                for reading in READINGS[cameras]:
+                    folder = run
+                    if cameras == "square":
+                        folder = Path(tmp) / f"{run.name}-{reading.split()[0]}" \
+                            f"{'-d' if 'camera_distance' in reading else ''}"
+                        folder.mkdir()
+                        write_scene(folder, _reading_scene(run, reading, truth))
+                    try:
+                        record, elapsed = _fit(folder)
+                    except INPUT_ERRORS as exc:       # a failure is a result: name it
+                        failures.append(f"{rig}, {reading}, seed {seed}: "
+                                        f"{type(exc).__name__}: {exc}")
+                        continue
+                    rows.append(_row(rig, cameras, angle, distance, reading, seed, record,
+                                     elapsed, truth["truth"]["k"]))
+                if progress is not None:
+                    progress(f"{rig} seed {seed}")
+    table = pd.DataFrame(rows)
+    with atomic_path(out_dir / "bench_perspective.csv") as t:
+        table.to_csv(t, index=False)
+    text = _summary_text(table, seeds, failures, renders)
+    write_text(out_dir / "bench_perspective.txt", text + "\n")
+    return text
+
+
+def _summary_text(table, seeds, failures, renders):
+    lines = [f"Perspective cameras: k error (% of truth, mean +- sd over {len(seeds)} "
+             "seed(s)) and the whole fit's time (median, s, tracking included); noise and "
+             "MJPG compression on"]
+    lines += [f"  failed: {f}" for f in failures]
+    if not len(table):
+        return "\n".join(lines)
+    out = []
+    for (rig, reading), grp in table.groupby(["rig", "reading"], sort=False):
+        row = {"rig": rig, "reading": reading}
+        for k in K_NAMES:
+            e = grp[f"{k}_error_pct"].to_numpy(dtype=float)
+            sd = float(np.std(e, ddof=1)) if len(e) > 1 else 0.0
+            row[k] = f"{np.mean(e):+.2f} +- {sd:.2f}"
+        x = grp["x_rms_px"].dropna()
+        r = grp["reprojection_px"].dropna()
+        row["x_rms_px"] = f"{x.median():.2f}" if len(x) else "-"
+        row["reproj_px"] = f"{r.median():.2f}" if len(r) else "-"
+        found = sorted({f for s in grp["findings"] for f in s.split(",") if f})
+        row["cross-checks"] = ",".join(found) or "pass"
+        row["fit_s"] = f"{grp['fit_s'].median():.2f}"
+        out.append(row)
+    lines += ["", pd.DataFrame(out).to_string(index=False),
+              "", f"rendering: median {np.median(renders):.1f} s per run "
+                  f"({len(renders)} runs)",
+              "cross-checks: what 'vidtrack fit' would refuse without --accept-disagreement "
+              "(x_disagreement: the views' X differ by more than a pixel; speed_ratio: their "
+              "speeds along X differ by more than 5 %)"]
+    return "\n".join(lines)
