@@ -1,6 +1,6 @@
 """Synthetic runs with known truth: ``vidtrack synth``.
 
-:func:`render_run` renders a run folder as SPEC.md describes it (``scene.toml``, the
+:func:`render_run` renders a run folder as docs/reference.md describes it (``scene.toml``, the
 footage of a ``front`` and/or ``top`` view, or of the pinhole cameras of
 :mod:`~vidtrack.synth._cameras`, optionally ``throws/01 ..``) and writes
 ``truth.json``: every parameter, and for every frame of every view the time, the world
