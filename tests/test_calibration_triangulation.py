@@ -21,21 +21,10 @@ from scipy.optimize import least_squares
 from calibration.errors import InputError
 from calibration.projective import ProjectiveCamera
 from calibration.triangulation import triangulate
+from pinhole import look_at
 
 K = np.array([[900.0, 0.0, 640.0], [0.0, 880.0, 360.0], [0.0, 0.0, 1.0]])
 DIST = np.array([-0.25, 0.08, 0.001, -0.0005, -0.01])
-
-
-def look_at(centre, target=(0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0)):
-    """R, t of a camera at ``centre`` looking at ``target`` (OpenCV: x right, y down, z ahead)."""
-    c = np.asarray(centre, float)
-    z = np.asarray(target, float) - c
-    z /= np.linalg.norm(z)
-    x = np.cross(z, up)
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    R = np.vstack([x, y, z])
-    return R, -R @ c
 
 
 def opencv_image(xyz, R, t, k=K, dist=DIST):

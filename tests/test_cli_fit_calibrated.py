@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 
 from fits.throw.ode import solve_throw
+from pinhole import look_at
 
 K = np.array([[1400.0, 0.0, 960.0], [0.0, 1400.0, 540.0], [0.0, 0.0, 1.0]])
 DIST = [-0.12, 0.03, 0.0005, -0.0003, 0.0]
@@ -23,15 +24,6 @@ CP = 0.115
 STATE = (0.25, 0.15, 0.0, 7.0, 4.5, 2.0)
 FPS = 500.0
 HEADING = np.radians(35.0)      # the throw's X in the calibration frame (z up there)
-
-
-def look_at(centre, target):
-    c, up = np.asarray(centre, float), np.array([0.0, 0.0, 1.0])
-    z = np.asarray(target, float) - c
-    z /= np.linalg.norm(z)
-    x = np.cross(z, up)
-    x /= np.linalg.norm(x)
-    return np.vstack([x, np.cross(z, x), z]), c
 
 
 def throw_frame_to_calibration():
@@ -50,8 +42,7 @@ def write_run(folder, rng, *, distortion=True):
              f"forward = [{float(np.cos(HEADING))!r}, {float(np.sin(HEADING))!r}, 0.0]"]
     for name, az in (("left", HEADING - np.radians(50)), ("right", HEADING + np.radians(45))):
         centre = target + 2.2 * np.array([np.sin(az), -np.cos(az), 0.35])
-        R, c = look_at(centre, target)
-        tvec = -R @ c
+        R, tvec = look_at(centre, target)
         dist = np.array(DIST if distortion else [0.0] * 5)
         uv, _ = cv2.projectPoints(xyz.reshape(-1, 1, 3), cv2.Rodrigues(R)[0], tvec, K, dist)
         uv = uv.reshape(-1, 2) + rng.normal(0, 0.1, (len(t), 2))

@@ -15,23 +15,13 @@ import pytest
 from calibration.projective import ProjectiveCamera
 from vidtrack.errors import TrackError
 from vidtrack.track.digitized import read_points
+from pinhole import look_at
 from vidtrack.world.calibrated import REPROJECTION, throw_rotation, triangulate_views
 
 K = np.array([[1100.0, 0.0, 640.0], [0.0, 1100.0, 400.0], [0.0, 0.0, 1.0]])
 G = 9.81
 FPS = 200.0
 UP = np.array([0.0, 0.0, 1.0])          # the calibration frame's z is up
-
-
-def look_at(centre, target=(0.0, 0.0, 0.3)):
-    c = np.asarray(centre, float)
-    z = np.asarray(target, float) - c
-    z /= np.linalg.norm(z)
-    x = np.cross(z, UP)
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    R = np.vstack([x, y, z])
-    return R, -R @ c
 
 
 def throw(t):
@@ -58,7 +48,7 @@ def scene(tmp_path):
     cams, tracks = {}, {}
     offset_frames = {"cam1": 0.0, "cam2": 0.37}
     for name, az in (("cam1", 0.0), ("cam2", np.pi / 2)):
-        R, t = look_at(2.5 * np.array([np.cos(az), np.sin(az), 0.25]))
+        R, t = look_at(2.5 * np.array([np.cos(az), np.sin(az), 0.25]), (0.0, 0.0, 0.3))
         cams[name] = ProjectiveCamera(K @ np.hstack([R, t[:, None]]), name=name)
         frames = np.arange(0, 150)
         times = frames / FPS - offset_frames[name] / FPS
