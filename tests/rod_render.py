@@ -56,3 +56,49 @@ def compose(background, cov, level, *, rng=None, noise=0.0, dtype=np.uint8):
         img = img + rng.normal(0.0, noise, img.shape)
     top = np.iinfo(dtype).max
     return np.clip(np.rint(img), 0, top).astype(dtype)
+
+
+def disc_coverage(shape, u, v, radius, *, ss=8):
+    """Exact-ish (``ss x ss`` supersampled) coverage of a disc of centre (u, v)."""
+    rows, cols = shape
+    cov = np.zeros(shape)
+    c0, c1 = max(0, int(np.floor(u - radius - 1))), min(cols, int(np.ceil(u + radius + 1)) + 1)
+    r0, r1 = max(0, int(np.floor(v - radius - 1))), min(rows, int(np.ceil(v + radius + 1)) + 1)
+    if c1 <= c0 or r1 <= r0:
+        return cov
+    offs = (np.arange(ss) + 0.5) / ss - 0.5
+    cc = (np.arange(c0, c1)[:, None] + offs[None, :]).reshape(-1)
+    rr = (np.arange(r0, r1)[:, None] + offs[None, :]).reshape(-1)
+    X, Y = np.meshgrid(cc - u, rr - v)
+    inside = X * X + Y * Y <= radius * radius
+    cov[r0:r1, c0:c1] = inside.reshape(r1 - r0, ss, c1 - c0, ss).mean(axis=(1, 3))
+    return cov
+
+
+def ellipse_coverage(shape, u, v, a, b, angle, *, ss=4):
+    """Supersampled coverage of an ellipse (semi-axes ``a`` along ``angle``, ``b``)."""
+    rows, cols = shape
+    cov = np.zeros(shape)
+    r = max(a, b) + 1
+    c0, c1 = max(0, int(np.floor(u - r))), min(cols, int(np.ceil(u + r)) + 1)
+    r0, r1 = max(0, int(np.floor(v - r))), min(rows, int(np.ceil(v + r)) + 1)
+    if c1 <= c0 or r1 <= r0:
+        return cov
+    offs = (np.arange(ss) + 0.5) / ss - 0.5
+    cc = (np.arange(c0, c1)[:, None] + offs[None, :]).reshape(-1)
+    rr = (np.arange(r0, r1)[:, None] + offs[None, :]).reshape(-1)
+    X, Y = np.meshgrid(cc - u, rr - v)
+    ca, sa = np.cos(angle), np.sin(angle)
+    p, q = (X * ca + Y * sa) / a, (-X * sa + Y * ca) / b
+    cov[r0:r1, c0:c1] = (p * p + q * q <= 1.0).reshape(r1 - r0, ss, c1 - c0, ss).mean(axis=(1, 3))
+    return cov
+
+
+def shadow_factor(cov, *, darkness, blur_px):
+    """Multiplicative shading of a shadow cast by an object of coverage ``cov``: 1 where
+    the light is unobstructed, ``1 - darkness`` in the umbra, a Gaussian penumbra of
+    ``blur_px``."""
+    import cv2
+
+    soft = cv2.GaussianBlur(cov.astype(np.float32), (0, 0), blur_px).astype(np.float64)
+    return 1.0 - darkness * soft

@@ -122,3 +122,60 @@ def test_repr_is_short():
     text = repr(bg)                # the image and noise map were printed in full
     assert len(text) < 300 and "array" not in text
     assert text.startswith(f"Background(shape={bg.shape}, noise_sigma=")
+
+
+def _shaken(rng, n=30, jitter_px=0.3, shape=(90, 150)):
+    """A textured scene seen by a camera that sways by a fraction of a pixel."""
+    scene = texture(shape, rng=rng, contrast=50.0, scale=2.0).astype(np.float32)
+    frames = []
+    for i in range(n):
+        # a slow sway: consecutive frames nearly alike, the median far from some
+        dx, dy = jitter_px * np.sin(2 * np.pi * i / 20), jitter_px * np.cos(2 * np.pi * i / 27)
+        m = np.float32([[1, 0, dx], [0, 1, dy]])
+        img = cv2.warpAffine(scene, m, (shape[1], shape[0]), flags=cv2.INTER_LINEAR,
+                             borderMode=cv2.BORDER_REFLECT)
+        frames.append(np.clip(np.rint(img + rng.normal(0.0, 1.0, shape)), 0, 255)
+                      .astype(np.uint8))
+    return scene, frames
+
+
+def test_edge_noise_of_a_shaking_camera_raises_the_threshold_where_the_scene_has_edges():
+    rng = np.random.default_rng(21)
+    _, frames = _shaken(rng)
+    idx = sample_indices(len(frames), 25)
+    pairs = [(frames[i], frames[i + 1]) for i in range(0, 28, 3)]
+    bg = estimate_background([frames[i] for i in idx], pairs=pairs, frames=idx)
+    assert bg.edge_noise and "edge_noise" in repr(bg)
+    thr = bg.threshold(k=5.0)
+    # a frame of the shaking camera with nothing moving: almost nothing is "changed"
+    late = frames[-1].astype(np.float32)
+    changed = np.abs(late - bg.image) > thr
+    assert changed.mean() < 0.002
+    # with the flat noise alone it would be: the edges flicker beyond 5 sigma
+    flat = np.abs(late - bg.image) > 5.0 * bg.noise_sigma * 1.03
+    assert flat.mean() > 20 * max(changed.mean(), 1e-4)
+
+
+def test_no_edge_noise_for_a_still_camera_with_sensor_noise():
+    rng = np.random.default_rng(22)
+    _, frames = _shaken(rng, jitter_px=0.0)
+    idx = sample_indices(len(frames), 25)
+    bg = estimate_background([frames[i] for i in idx],
+                             pairs=[(frames[i], frames[i + 1]) for i in range(0, 28, 3)])
+    assert bg.edge_noise == ()
+    assert bg.noise_sigma == pytest.approx(1.0, rel=0.2)
+
+
+def test_compressed_blocks_that_repeat_set_the_noise_floor():
+    # consecutive frames repeat exactly (a codec's skipped blocks: their differences
+    # say "no noise") while each refresh lands a few grey levels off the scene
+    rng = np.random.default_rng(23)
+    scene = np.full((60, 80), 120.0)
+    frames = []
+    for _ in range(20):
+        f = np.clip(np.rint(scene + rng.normal(0.0, 2.0, scene.shape)), 0, 255).astype(np.uint8)
+        frames += [f, f.copy()]
+    idx = sample_indices(len(frames), 25)
+    bg = estimate_background([frames[i] for i in idx],
+                             pairs=[(frames[i], frames[i + 1]) for i in range(0, 38, 4)])
+    assert bg.noise_sigma == pytest.approx(2.0, rel=0.2)    # not the 0.5 floor

@@ -39,6 +39,7 @@ def track_view(scene, folder, name, settings, *, quiet=True, cancel=None, parts=
     view = scene.views[name]
     with open_source(source_of(view, scene, folder), fps=view.fps, frames=view.frames) as src:
         return (track_parts if parts else track)(src, view=name, quiet=quiet, cancel=cancel,
+                                                 target=getattr(view, "target", None),
                                                  **settings)
 
 

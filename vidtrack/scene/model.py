@@ -39,7 +39,7 @@ CAMERA_DISTANCE_RANGE_M = (0.01, 1e5)
 
 _TOP_KEYS = ("schema", "run", "factors", "physics", "straw", "machine", "world", "views")
 _VIEW_KEYS = ("source", "fps", "axes", "origin_px", "ruler", "m_per_px", "calibration",
-              "camera_distance_m", "frames", "sync_frame")
+              "camera_distance_m", "frames", "sync_frame", "target")
 
 
 # --------------------------------------------------------------------------- results
@@ -181,6 +181,10 @@ class ViewSpec:
         Y = 0 for ``top``); with it the world stage corrects the perspective (a point
         nearer the camera looks larger) by the depth the other view measures. None:
         not corrected.
+    target : (int, (float, float)) or None
+        ``(frame, (u_px, v_px))``: the object to track is the moving one at that pixel
+        of that 0-based file frame (``target = { frame = F, at_px = [u, v] }``); it is
+        followed forwards and backwards from there. None: found automatically.
     """
 
     name: str
@@ -198,6 +202,7 @@ class ViewSpec:
     frames: tuple | None = None
     sync_frame: object = "auto"
     camera_distance_m: float | None = None
+    target: tuple | None = None
 
     @property
     def m_per_px(self):
@@ -247,6 +252,8 @@ class ViewSpec:
         if self.frames is not None:
             out["frames"] = list(self.frames)
         out["sync_frame"] = self.sync_frame
+        if self.target is not None:
+            out["target"] = {"frame": self.target[0], "at_px": list(self.target[1])}
         return out
 
 

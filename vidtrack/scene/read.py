@@ -180,6 +180,32 @@ def _frames_and_sync(ck, view, path):
     return frames, sync
 
 
+def _parse_target(ck, view, path, frames):
+    """A view's ``target = { frame = F, at_px = [u, v] }`` as ``(F, (u, v))``, or None."""
+    if "target" not in view:
+        return None
+    tp = f"{path}.target"
+    t = view["target"]
+    if not isinstance(t, dict):
+        ck.fail(tp, "must be a table { frame = F, at_px = [u, v] }: the object's pixel in "
+                f"one frame, got {_type_name(t)} {_show(t)}")
+    ck.keys(t, ("frame", "at_px"), tp)
+    if "frame" not in t:
+        ck.fail(f"{tp}.frame", "is required: the 0-based frame index where at_px is the "
+                "object's pixel")
+    frame = t["frame"]
+    if isinstance(frame, bool) or not isinstance(frame, int):
+        ck.fail(f"{tp}.frame", f"must be a frame index (an integer >= 0), got "
+                f"{_type_name(frame)} {_show(frame)}")
+    if frame < 0:
+        ck.fail(f"{tp}.frame", f"must be >= 0 (a 0-based frame index), got {frame}")
+    if frames is not None and not frames[0] <= frame < frames[1]:
+        ck.fail(f"{tp}.frame", f"must be inside frames [{frames[0]}, {frames[1]}), got {frame}")
+    at = ck.pair(t, "at_px", f"{tp}.at_px", required=True,
+                 what="[u, v]: the object's pixel (column, row) in that frame")
+    return frame, at
+
+
 def _parse_view(ck, name, view, folder):
     path = f"views.{name}"
     if not isinstance(view, dict):
@@ -209,11 +235,13 @@ def _parse_view(ck, name, view, folder):
                          within=(*CAMERA_DISTANCE_RANGE_M, "m"))
 
     frames, sync = _frames_and_sync(ck, view, path)
+    target = _parse_target(ck, view, path, frames)
     source = _resolve(folder, source_text) if folder is not None else Path(source_text)
     return ViewSpec(name=name, source=source, source_text=source_text, fps=fps, axes=axes,
                     origin_px=origin, scale=scale, ruler=ruler, m_per_px_given=m_given,
                     calibration=calib_path, calibration_text=calib_text, camera=camera,
-                    frames=frames, sync_frame=sync, camera_distance_m=distance)
+                    frames=frames, sync_frame=sync, camera_distance_m=distance,
+                    target=target)
 
 
 def _example_axes(name):

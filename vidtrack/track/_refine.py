@@ -4,6 +4,8 @@ Works on the per-frame arrays of one view (times in frames ``tau``, positions ``
 ``flags``), in place. Only *clean* points (flags 0, finite) are evidence; flagged points
 are never used to judge others.
 
+- :func:`flag_odd_sizes`: an object of any shape keeps its size from frame to frame; a
+  clean frame far from the median size of the clean frames round it is flagged.
 - :func:`flag_outliers`: a point farther than ``max(min_px, 6 x robust scatter)`` from a
   quadratic through its clean neighbours (up to 4 on each side, itself left out) is
   flagged OUTLIER.
@@ -86,6 +88,23 @@ def leave_one_out_residuals(tau, pos, idx, *, half=4, span=6.5):
     return res
 
 
+def flag_odd_sizes(area, flags, mask, *, odd_flag, half=20, low=0.7, high=1.35):
+    """Flag frames of ``mask`` whose ``area`` is off the median of the ``mask`` frames
+    within ``half`` frames (outside ``low`` to ``high`` times it); returns the count."""
+    idx = np.flatnonzero(mask & np.isfinite(area))
+    if idx.size < 5:
+        return 0
+    a = area[idx]
+    bad = []
+    for k, i in enumerate(idx):
+        lo, hi = np.searchsorted(idx, [i - half, i + half + 1])
+        med = float(np.median(a[lo:hi]))
+        if med > 0 and not low * med <= a[k] <= high * med:
+            bad.append(i)
+    flags[bad] |= odd_flag
+    return len(bad)
+
+
 def flag_outliers(tau, pos, flags, *, clean_mask, outlier_flag, min_px=1.0):
     """Flag clean points that leave the smooth path; returns the robust scatter (px)."""
     idx = np.flatnonzero(clean_mask)
@@ -154,7 +173,8 @@ def _best_knot(ts, p, w, lo, hi, scale):
 
 
 def find_release(tau, pos, usable_mask, *, first_in_open, window=80, min_before=2,
-                 min_after=10, significance=25.0, min_ratio=2.0, huber=2.5):
+                 min_after=10, significance=25.0, min_ratio=2.0, huber=2.5, attached=None,
+                 attached_within=10.0):
     """Release (first frame of free flight) from where the path's acceleration jumps.
 
     Position and velocity are continuous at the release; the acceleration is not:
@@ -200,6 +220,11 @@ def find_release(tau, pos, usable_mask, *, first_in_open, window=80, min_before=
         Residuals beyond this many robust sigmas are down-weighted in the first
         reweightings (Huber); after them Tukey's biweight (``TUKEY`` robust sigmas)
         drops gross errors altogether.
+    attached : numpy.ndarray of bool, optional
+        Frames where the object touched another moving object (the blade, a hand).
+        Given, a knot counts only when such a frame lies within ``attached_within``
+        frames before it: an object flying free before the knot was not released there
+        (a light object's drag falls off as it slows down, which a knot can mimic).
 
     Returns
     -------
@@ -250,18 +275,26 @@ def find_release(tau, pos, usable_mask, *, first_in_open, window=80, min_before=
     if a_ride < min_ratio * a_free:
         return _first_seen(idx, first_in_open, weak=(a_ride, a_free))
     t_rel = tau[idx[0]] + tk
+    if attached is not None:
+        near = (tau >= t_rel - attached_within) & (tau <= t_rel + 1.0)
+        if not np.any(np.asarray(attached, bool) & near):
+            return _first_seen(idx, first_in_open, free=(a_ride, a_free))
     after = np.flatnonzero(tau >= t_rel - 0.2)
     return (int(after[0]), float(t_rel),
             f"the path's acceleration drops from {a_ride:.3g} to {a_free:.3g} px/frame^2 "
             "here (end of the ride on the blade)")
 
 
-def _first_seen(idx, first_in_open, weak=None):
+def _first_seen(idx, first_in_open, weak=None, free=None):
     if first_in_open:
         return int(idx[0]), None, "the straw was first seen in free flight"
-    why = ("no jump of the acceleration was found" if weak is None else
-           f"the acceleration changes only from {weak[0]:.3g} to {weak[1]:.3g} px/frame^2, "
-           "not the ride's strong acceleration ending")
+    if free is not None:
+        why = (f"the acceleration drops from {free[0]:.3g} to {free[1]:.3g} px/frame^2 "
+               "while the object touches nothing (drag, not a release)")
+    else:
+        why = ("no jump of the acceleration was found" if weak is None else
+               f"the acceleration changes only from {weak[0]:.3g} to {weak[1]:.3g} "
+               "px/frame^2, not the ride's strong acceleration ending")
     return None, None, f"{why}: the release is not identifiable in this view"
 
 

@@ -72,8 +72,14 @@ class Blob:
     touches_border: bool = False
     touches_roi: bool = False
     index: int = -1      # source index of the frame it was seen in
-    polarity: int = 0    # +1 brighter than the background, -1 darker
+    polarity: int = 0    # +1 brighter than the background, -1 darker, 0 both (one object)
     merged: bool = False  # touches a moving object of the other polarity
+    contrast: float = np.nan  # typical |f - b| of its pixels (90th percentile)
+    edge_w: float = np.nan    # contrast / steepest gradient of f - b at its edge (px)
+    silhouette: tuple = None  # (u, v, area, angle, length, width) by its silhouette
+    off_axis: float = 0.0     # a rod's coverage share beyond its band (another across it)
+    core: int = 0             # its fully covered pixels, read by one grey level
+    uniform: float = 0.0      # the core's share of the region it closes (1: one level)
 
 
 class Segmenter:
@@ -353,6 +359,7 @@ class Work:
     den: np.ndarray
     sel: np.ndarray      # uint8 0/1: the straw's detected pixels
     others: np.ndarray   # bool: pixels of other components
+    trimmed: np.ndarray = None   # bool: detections cut off as not the object's (a shadow)
 
 
 def read_level(region, blob):
@@ -584,6 +591,265 @@ def measure(work, blob, level, *, width=None, length=None):
         ang += np.pi
     blob.angle = float(ang)
     blob.level = level
+    blob.off_axis = _off_axis(c, m, ang)
+    return blob
+
+
+def _off_axis(c, m, ang):
+    """Share of a rod's coverage beyond its band (its half-width plus 1.5 px) from the
+    axis, away from its ends: 0 for one rod, blurred or not; a rod attached across it
+    (riding along, crossing) puts its arms there."""
+    pos = c > 0.15
+    if np.count_nonzero(pos) < 6:
+        return 0.0
+    yy, xx = np.nonzero(pos)
+    w = c[pos].astype(np.float64)
+    cx, cy = m["m10"] / m["m00"], m["m01"] / m["m00"]
+    ca, sa = np.cos(ang), np.sin(ang)
+    along = (xx - cx) * ca + (yy - cy) * sa
+    across = np.abs(-(xx - cx) * sa + (yy - cy) * ca)
+    order = np.argsort(across)
+    cum = np.cumsum(w[order])
+    half = float(across[order][np.searchsorted(cum, 0.5 * cum[-1])])
+    band = 2.0 * half + 1.5
+    k = along.size
+    lo, hi = np.partition(along, (k // 10, k - 1 - k // 10))[[k // 10, k - 1 - k // 10]]
+    mid = (along > lo) & (along < hi)
+    total = float(w[mid].sum())
+    if total <= 0:
+        return 0.0
+    return float(w[mid & (across > band)].sum() / total)
+
+
+def edge_stats(work, mask=None):
+    """Contrast and edge width of the detected pixels of ``work`` (for shadows).
+
+    Returns
+    -------
+    (float, float)
+        The 90th percentile of ``|f - b|`` over the detections, and that contrast divided
+        by the 90th percentile of the gradient of ``f - b`` over the detections grown by
+        a pixel: about 2 px for a sharp edge (the gradient's 3 x 3 stencil), more for a
+        blurred one (a shadow's penumbra). NaN without detections.
+    """
+    sel = work.sel.view(bool) if mask is None else mask
+    if not sel.any():
+        return np.nan, np.nan
+    ad = np.abs(work.d)
+    contrast = float(np.percentile(ad[sel], 90))
+    gx = cv2.Sobel(work.d, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)
+    gy = cv2.Sobel(work.d, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)
+    ring = cv2.dilate(sel.view(np.uint8), _K3).view(bool)
+    g = float(np.percentile(cv2.magnitude(gx, gy)[ring], 90))
+    return contrast, contrast / max(g, 1e-6)
+
+
+def fill_holes(mask):
+    """``mask`` (uint8 0/1 or 0/255) with the holes inside its components filled (bool)."""
+    m = (mask > 0).astype(np.uint8)
+    rows, cols = m.shape
+    pad = np.zeros((rows + 2, cols + 2), np.uint8)
+    pad[1:-1, 1:-1] = m
+    flood = pad.copy()
+    ff = np.zeros((rows + 4, cols + 4), np.uint8)
+    cv2.floodFill(flood, ff, (0, 0), 1)
+    return (pad[1:-1, 1:-1] > 0) | (flood[1:-1, 1:-1] == 0)
+
+
+def trim_attached(work, *, reach_px, along=(0.0, 0.0)):
+    """Drop detections not within ``reach_px`` of the object's fully covered core (None:
+    only measure the core).
+
+    For an object of one grey level (``work.den`` from its level): its pixels show its
+    level whatever the background, so their coverage ``c = d / den`` is 1, partial only
+    in a ring at its edge (and a smear along the motion: ``along``, the motion's vector
+    in px per exposure at most; the smear is read off the core, shorter along the
+    motion than across it by the blur's length). What is detected farther out is
+    attached to it, not of it: a shadow of the same polarity (c about 0.5: a lighter
+    darkening, blurred), a reflection. Those pixels are taken out of ``work.sel`` (into
+    ``work.trimmed``: the surroundings the edge is read against).
+
+    Returns
+    -------
+    (int, int, float)
+        The core's pixel count (c >= 0.8), the pixels dropped, and the core's share of
+        the region it closes (holes filled; 1 for an object of one grey level, less for a
+        textured object, which the caller does not trim; 0 when the core's grey levels
+        spread over more than 15 % of its contrast plus twice the noise: shading,
+        texture).
+    """
+    sel = work.sel.view(bool)
+    readable = np.abs(work.den) > np.float32(READABLE) * work.t
+    c = np.zeros_like(work.d)
+    np.divide(work.d, work.den, out=c, where=readable)
+    filled = fill_holes(work.sel)
+    core = (sel & (c >= 0.8)).view(np.uint8)
+    n_core = int(np.count_nonzero(core))
+    if n_core == 0:
+        return 0, 0, 0.0
+    # how solid the core is: its share of the region it closes (a ball of one grey
+    # level: all of it; a textured object's scattered bright patches: little)
+    closed = cv2.morphologyEx(core, cv2.MORPH_CLOSE, _K5).view(bool)
+    closed = fill_holes(closed.view(np.uint8)) & filled
+    region = int(np.count_nonzero(closed))
+    uniform = float(np.count_nonzero(core.view(bool) & closed)) / region if region else 0.0
+    # and of one grey level: the core's pixels agree (their spread a small part of the
+    # contrast; a white cup's shading or a toy's fur do not)
+    vals = work.f[core.view(bool)]
+    contrast = float(np.median(np.abs(work.d[core.view(bool)])))
+    if vals.size >= 5 and contrast > 0:
+        q25, q75 = np.percentile(vals, [25, 75])
+        if (q75 - q25) > 0.15 * contrast + 2.0 * float(np.median(work.t)) / 5.0:
+            uniform = 0.0
+    if reach_px is None:
+        return n_core, 0, uniform
+    r = max(1, int(math.ceil(reach_px)))
+    disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    foot = cv2.dilate(core, disk)
+    au, av = along
+    length = float(np.hypot(au, av))
+    if length >= 1.0:
+        # the smear along the motion, as the core shows it: motion blur shortens the
+        # fully covered core along the motion by its length, and spreads half of it
+        # beyond each end (a round object's core is as long as it is wide unblurred)
+        m = cv2.moments(core, True)
+        if m["m00"] > 0:
+            ux, uy = au / length, av / length
+            mu20, mu02, mu11 = m["mu20"] / m["m00"], m["mu02"] / m["m00"], m["mu11"] / m["m00"]
+            var_along = ux * ux * mu20 + 2 * ux * uy * mu11 + uy * uy * mu02
+            var_perp = uy * uy * mu20 - 2 * ux * uy * mu11 + ux * ux * mu02
+            blur = max(0.0, np.sqrt(12.0 * max(var_perp, 0.0))
+                       - np.sqrt(12.0 * max(var_along, 0.0)))
+            blur = min(blur, length, 10.0)
+            au, av, length = 0.5 * blur * ux, 0.5 * blur * uy, 0.5 * blur
+    if length >= 1.0:
+        k = int(math.ceil(length))
+        line = np.zeros((2 * k + 1, 2 * k + 1), np.uint8)
+        cv2.line(line, (k - int(round(au)), k - int(round(av))),
+                 (k + int(round(au)), k + int(round(av))), 1, 1)
+        foot = cv2.dilate(foot, line)
+    drop = filled & ~foot.view(bool)
+    n_drop = int(np.count_nonzero(drop & sel))
+    if n_drop:
+        work.sel = (sel & ~drop).view(np.uint8)
+        work.trimmed = drop
+    return n_core, n_drop, uniform
+
+
+def measure_solid(work, blob):
+    """Centroid etc. of an object of one grey level, its edge read against its
+    surroundings (in place; ``work.den`` from its level).
+
+    Its fully covered core (c >= 0.8) and enclosed holes cover fully. A pixel of the
+    ring round the core (2 px) is partly covered, ``c = (f - b') / (s - b')``, clipped to
+    [0, 1], where ``b'`` is the pixel's static background plus how much the surroundings
+    (2 to 5 px beyond the core) differ from theirs: a shadow falling beside the object
+    darkens what shows between its edge and the shadow, which read against the static
+    background would look like more of the object.
+    """
+    sel = work.sel.view(bool)
+    readable = np.abs(work.den) > np.float32(READABLE) * work.t
+    c = np.zeros_like(work.d)
+    np.divide(work.d, work.den, out=c, where=readable)
+    core = (sel & (c >= 0.8)).view(np.uint8)
+    if not core.any():
+        return measure_silhouette(work, blob)
+    ring_k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
+    far_k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (11, 11))
+    offset = np.zeros_like(work.d)
+    for _ in range(2):
+        # the core, then the surroundings' offset, then the core read against them
+        core_b = fill_holes(core) & ~work.others
+        near = cv2.dilate(core_b.view(np.uint8), ring_k).view(bool)
+        far = cv2.dilate(core_b.view(np.uint8), far_k).view(bool)
+        band = (far & ~near & ~work.others).astype(np.float32)
+        num = cv2.blur(work.d * band, (9, 9), borderType=cv2.BORDER_REPLICATE)
+        cnt = cv2.blur(band, (9, 9), borderType=cv2.BORDER_REPLICATE)
+        offset = np.where(cnt > 0.05, num / np.maximum(cnt, 1e-6), np.float32(0.0))
+        d2 = work.d - offset
+        den2 = work.den - offset
+        c2 = np.zeros_like(work.d)
+        np.divide(d2, den2, out=c2, where=np.abs(den2) > np.float32(READABLE) * work.t)
+        core2 = (sel & (c2 >= 0.8)).view(np.uint8)
+        if not core2.any():
+            break
+        core = core2
+    core_b = fill_holes(core) & ~work.others
+    near = cv2.dilate(core_b.view(np.uint8), ring_k).view(bool)
+    ring = near & ~core_b & ~work.others & (sel | cv2.dilate(work.sel, _K3).view(bool))
+    d2 = work.d - offset
+    den2 = work.den - offset
+    ok = ring & (np.abs(den2) > np.float32(READABLE) * work.t)
+    cov = np.zeros_like(work.d)
+    cov[ok] = np.clip(d2[ok] / den2[ok], 0.0, 1.0)
+    cov[core_b] = 1.0
+    m = cv2.moments(cov, False)
+    m00 = m["m00"]
+    if not m00 > 0:
+        blob.area = 0.0
+        return blob
+    x0, y0 = work.origin
+    blob.u = x0 + m["m10"] / m00
+    blob.v = y0 + m["m01"] / m00
+    blob.area = float(m00)
+    a, bb, cc = m["mu20"] / m00, m["mu11"] / m00, m["mu02"] / m00
+    half = 0.5 * (a + cc)
+    rad = np.hypot(0.5 * (a - cc), bb)
+    blob.length = float(np.sqrt(12.0 * max(half + rad, 0.0)))
+    blob.width = float(np.sqrt(12.0 * max(half - rad, 0.0)))
+    ang = 0.5 * np.arctan2(2.0 * bb, a - cc)
+    if ang <= -np.pi / 2:
+        ang += np.pi
+    blob.angle = float(ang)
+    return blob
+
+
+def measure_silhouette(work, blob):
+    """Centroid, area, orientation and size of an object of any grey levels (in place).
+
+    For an object that is brighter than the background in some parts and darker in
+    others (a dark ball with a highlight, a white cup with a dark opening), or that is
+    textured, no single grey level gives the coverage. Its silhouette does: the detected
+    pixels (either polarity) with their holes filled (where the object's own grey level
+    happens to equal the background's) cover fully; round the edge, a pixel's coverage
+    is its ``|f - b|`` against the largest ``|f - b|`` of the object's interior within
+    2 px (an edge pixel half covered by the object shows half of the nearby interior's
+    contrast), clipped to [0, 1]. Then moments as in :func:`measure`.
+    """
+    sel = work.sel
+    if not sel.any():
+        blob.area = 0.0
+        return blob
+    filled = fill_holes(sel)
+    fu8 = filled.view(np.uint8)
+    inner = cv2.erode(fu8, _K3).view(bool)
+    ad = np.abs(work.d)
+    ref = cv2.dilate(np.where(inner, ad, np.float32(0.0)), _K5)
+    ref = np.maximum(ref, work.t)
+    edge = (cv2.dilate(fu8, _K3).view(bool) & ~inner) & ~work.others
+    if work.trimmed is not None:
+        edge &= ~work.trimmed
+    c = np.zeros_like(ad)
+    c[edge] = np.minimum(ad[edge] / ref[edge], 1.0)
+    c[inner] = 1.0
+    m = cv2.moments(c, False)
+    m00 = m["m00"]
+    if not m00 > 0:
+        blob.area = 0.0
+        return blob
+    x0, y0 = work.origin
+    blob.u = x0 + m["m10"] / m00
+    blob.v = y0 + m["m01"] / m00
+    blob.area = float(m00)
+    a, bb, cc = m["mu20"] / m00, m["mu11"] / m00, m["mu02"] / m00
+    half = 0.5 * (a + cc)
+    rad = np.hypot(0.5 * (a - cc), bb)
+    blob.length = float(np.sqrt(12.0 * max(half + rad, 0.0)))
+    blob.width = float(np.sqrt(12.0 * max(half - rad, 0.0)))
+    ang = 0.5 * np.arctan2(2.0 * bb, a - cc)
+    if ang <= -np.pi / 2:
+        ang += np.pi
+    blob.angle = float(ang)
     return blob
 
 

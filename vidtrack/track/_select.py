@@ -1,20 +1,26 @@
 """Motion prediction and the choice of the straw among moving blobs (internal).
 
 :class:`Predictor` extrapolates the last clean positions with a least-squares
-polynomial in time (quadratic from 6 points on, linear below, constant for one point);
+polynomial in time (quadratic from 4 points on, linear below, constant for one point);
 its weights depend only on the time offsets, so they are cached and each prediction is
 two small dot products.
 
-:class:`Acquirer` finds the straw when it is not being followed: every moving blob
+:class:`Acquirer` finds the object when it is not being followed: every moving blob
 starts a tentative tracklet; a tracklet that is seen in ``confirm`` consecutive frames,
 moves, and moves steadily (its last point where its earlier points said) is a
 candidate. A static blob (a ghost in the background, a machine part that shifted) never
 qualifies; nor does a flickering one; nor, while a larger one is steady too, a tiny one
 (a few noise pixels by the rotor). Blobs brighter and darker than the background are
-kept apart (a bright straw riding a dark blade is its own blob). Among candidates the
-one nearest the stream's centre line wins when a centre line is given, else the
-fastest: the straw leaves the tip of the blade at the tip's speed, faster than the
-centroid of any part of the rotor.
+kept apart (a bright straw riding a dark blade is its own blob), and an object showing
+both polarities is also seen whole. The one thing moving is taken once steady and of
+constant size; among several, only one that *flies* (:meth:`Tracklet.flying`: a thrown
+object travels twice its size along a quadratic path in time, keeping its size; a
+person's limbs swing about a place and change shape). Pieces of a larger blob moving
+with it, shadows and reflections of another candidate give way; two objects tied
+together are one compound. Among what is left the one nearest the stream's centre
+line wins when a centre line is given, else the fastest by half again (the straw
+leaves the tip of the blade at the tip's speed, faster than the centroid of any part
+of the rotor); otherwise the choice is ambiguous (:attr:`Acquirer.ambiguous`).
 """
 
 import numpy as np
@@ -56,7 +62,7 @@ class Predictor:
         w = self._cache.get(key)
         if w is None:
             m = len(offsets)
-            deg = min(self.max_degree, 2 if m >= 6 else (1 if m >= 2 else 0))
+            deg = min(self.max_degree, 2 if m >= 4 else (1 if m >= 2 else 0))
             a = np.vander(np.asarray(offsets, float), deg + 1, increasing=True)
             w = np.linalg.pinv(a)  # (deg+1, m): coefficients = w @ positions
             if deg < 2:
@@ -89,15 +95,20 @@ class Predictor:
 class Tracklet:
     """A tentative sequence of detections of one moving blob."""
 
-    __slots__ = ("points", "blobs")
+    __slots__ = ("points", "blobs", "parts")
 
     def __init__(self, t, blob):
         self.points = [(t, blob.u, blob.v)]
         self.blobs = [blob]
+        self.parts = ()
 
     @property
     def last_t(self):
         return self.points[-1][0]
+
+    @property
+    def polarity(self):
+        return self.blobs[-1].polarity
 
     def predict(self, t):
         if len(self.points) == 1:
@@ -112,9 +123,43 @@ class Tracklet:
         (t0, u0, v0), (t1, u1, v1) = self.points[0], self.points[-1]
         return float(np.hypot(u1 - u0, v1 - v0) / max(t1 - t0, 1e-9))
 
+    def velocity(self, n=4):
+        """Mean velocity (px/frame) over the last ``n`` points."""
+        pts = self.points[-n:]
+        (t0, u0, v0), (t1, u1, v1) = pts[0], pts[-1]
+        dt = max(t1 - t0, 1e-9)
+        return np.array([(u1 - u0) / dt, (v1 - v0) / dt])
+
     def add(self, t, blob):
         self.points.append((t, blob.u, blob.v))
         self.blobs.append(blob)
+        if len(self.points) > MAX_POINTS:
+            del self.points[0]
+            del self.blobs[0]
+
+    def size(self, n=8):
+        """Typical linear size (px): the square root of the median mask area."""
+        return float(np.sqrt(np.median([b.mask_area for b in self.blobs[-n:]])))
+
+    def travel(self):
+        """Farthest distance (px) of any point from the first."""
+        p = np.array([q[1:] for q in self.points])
+        return float(np.max(np.hypot(*(p - p[0]).T)))
+
+    def path_rms(self, n=12):
+        """RMS distance (px) of the last ``n`` points from a quadratic in time (NaN below 5)."""
+        pts = np.array(self.points[-n:])
+        if len(pts) < 5:
+            return float("nan")
+        t = pts[:, 0] - pts[-1, 0]
+        a = np.vander(t, 3)
+        coef, *_ = np.linalg.lstsq(a, pts[:, 1:], rcond=None)
+        r = pts[:, 1:] - a @ coef
+        return float(np.sqrt(np.sum(r * r) / max(len(pts) - 3, 1)))
+
+    def area_ratio(self, n=8):
+        a = np.array([b.mask_area for b in self.blobs[-n:]], float)
+        return float(a.max() / max(a.min(), 1.0))
 
     def steady(self, confirm, *, min_motion):
         """Seen ``confirm`` times in a row, moving, and the last point where predicted."""
@@ -131,11 +176,57 @@ class Tracklet:
             (t0, u0, v0), (t1, u1, v1), (t2, u2, v2) = pts[-3], pts[-2], pts[-1]
             pu = u1 + (u1 - u0) * (t2 - t1) / max(t1 - t0, 1e-9)
             pv = v1 + (v1 - v0) * (t2 - t1) / max(t1 - t0, 1e-9)
-            tol = 1.5 + 0.3 * step
+            tol = 1.5 + 0.3 * step + 0.05 * self.size(confirm)
             if np.hypot(u2 - pu, v2 - pv) > tol:
                 return False
         areas = np.array([b.mask_area for b in self.blobs[-confirm:]], float)
         return areas.max() <= 2.5 * max(areas.min(), 1.0)
+
+    def flying(self, *, min_points=5):
+        """Moving like a thrown object: far, smoothly, keeping its size.
+
+        It has travelled at least twice its own size (a person's limb or a machine part
+        swings about a place; a thrown object leaves it), its last points lie on a
+        quadratic in time within ``max(0.75 px, 0.08 x size)`` (a free flight seen
+        over a few frames; the centroid of a limb changing shape jitters) and its mask
+        area changed by less than a factor of 2.
+        """
+        if len(self.points) < min_points:
+            return False
+        size = self.size()
+        if self.travel() < max(2.0 * size, 8.0):
+            return False
+        rms = self.path_rms()
+        if not rms <= max(0.75, 0.08 * size):
+            return False
+        return self.area_ratio() <= 2.0
+
+    def almost_flying(self):
+        """Half way to :meth:`flying`: travelled its own size, smoothly, keeping it."""
+        if len(self.points) < 4:
+            return False
+        size = self.size()
+        if self.travel() < max(size, 4.0):
+            return False
+        rms = self.path_rms()
+        if np.isfinite(rms) and not rms <= max(0.75, 0.08 * size):
+            return False
+        return self.area_ratio() <= 2.0
+
+    def sharpness(self, n=6):
+        """(contrast, edge width) medians over the last ``n`` blobs (NaN if unknown)."""
+        c = [b.contrast for b in self.blobs[-n:] if np.isfinite(b.contrast)]
+        w = [b.edge_w for b in self.blobs[-n:] if np.isfinite(b.edge_w)]
+        return (float(np.median(c)) if c else np.nan, float(np.median(w)) if w else np.nan)
+
+    def describe(self, origin=0):
+        """``frame F at (u, v)`` of the last point (F a source index plus ``origin``)."""
+        t, u, v = self.points[-1]
+        return int(round(t)) + origin, (float(u), float(v))
+
+
+#: Most points a tracklet keeps.
+MAX_POINTS = 256
 
 
 def line_distance(u, v, line):
@@ -148,8 +239,126 @@ def line_distance(u, v, line):
     return float(abs((u - a0) * dv - (v - b0) * du) / norm)
 
 
+def _co_moving(a, b):
+    """Two tracklets moving together, side by side, over their common recent frames."""
+    n = min(len(a.points), len(b.points), 6)
+    if n < 3:
+        return False
+    ta = np.array(a.points[-n:])
+    tb = np.array(b.points[-n:])
+    if not np.allclose(ta[:, 0], tb[:, 0]):
+        return False
+    va, vb = a.velocity(n), b.velocity(n)
+    speed = max(float(np.hypot(*va)), float(np.hypot(*vb)), 1e-9)
+    if np.hypot(*(va - vb)) > 0.3 * speed + 1.0:
+        return False
+    d = np.hypot(*(ta[:, 1:] - tb[:, 1:]).T)
+    reach = 1.5 * (a.size() + b.size()) + 4.0
+    return bool(np.all(d <= reach)) and float(np.ptp(d)) <= 0.25 * reach + 2.0
+
+
+def _touch(a, b, gap=2):
+    """The boxes of two blobs touch (within ``gap`` px)."""
+    ax0, ay0, ax1, ay1 = a.bbox
+    bx0, by0, bx1, by1 = b.bbox
+    return ax0 <= bx1 + gap and bx0 <= ax1 + gap and ay0 <= by1 + gap and by0 <= ay1 + gap
+
+
+def _rodlike(b):
+    """A rod (long or thin: a straw), from its coverage's second moments."""
+    if not (np.isfinite(b.width) and np.isfinite(b.length)):
+        return True
+    return b.width < 4.0 or b.length >= 3.0 * b.width
+
+
+def _inside(a, b, gap=2):
+    """``a``'s box lies within ``b``'s (grown by ``gap`` px)."""
+    ax0, ay0, ax1, ay1 = a.bbox
+    bx0, by0, bx1, by1 = b.bbox
+    return bx0 - gap <= ax0 and by0 - gap <= ay0 and ax1 <= bx1 + gap and ay1 <= by1 + gap
+
+
+def _merged_blob(a, b):
+    """One blob of two that fly together (their silhouettes' area-weighted centre)."""
+    import copy
+
+    def sil(x):
+        if x.silhouette is not None:
+            return x.silhouette
+        return (x.u, x.v, x.area if np.isfinite(x.area) else float(x.mask_area),
+                x.angle, x.length, x.width)
+
+    sa, sb = sil(a), sil(b)
+    wa, wb = max(sa[2], 1e-9), max(sb[2], 1e-9)
+    m = copy.copy(a if a.mask_area >= b.mask_area else b)
+    m.u = (wa * sa[0] + wb * sb[0]) / (wa + wb)
+    m.v = (wa * sa[1] + wb * sb[1]) / (wa + wb)
+    m.area = wa + wb
+    m.mask_area = a.mask_area + b.mask_area
+    m.bbox = (min(a.bbox[0], b.bbox[0]), min(a.bbox[1], b.bbox[1]),
+              max(a.bbox[2], b.bbox[2]), max(a.bbox[3], b.bbox[3]))
+    w, h = m.bbox[2] - m.bbox[0], m.bbox[3] - m.bbox[1]
+    m.length, m.width = float(max(w, h)), float(min(w, h))
+    m.angle = 0.0 if w >= h else np.pi / 2
+    m.silhouette = (m.u, m.v, m.area, m.angle, m.length, m.width)
+    m.polarity = 0
+    m.merged = a.merged or b.merged
+    m.touches_border = a.touches_border or b.touches_border
+    m.contrast = np.nanmax([a.contrast, b.contrast])
+    m.edge_w = np.nanmin([a.edge_w, b.edge_w])
+    return m
+
+
+def _compound(a, b):
+    """A tracklet of two that fly together (a bear under its balloon), over the frames
+    both were seen."""
+    tb = {round(t, 6): k for k, (t, _, _) in enumerate(b.points)}
+    out = None
+    for k, (t, _, _) in enumerate(a.points):
+        j = tb.get(round(t, 6))
+        if j is None:
+            continue
+        m = _merged_blob(a.blobs[k], b.blobs[j])
+        if out is None:
+            out = Tracklet(t, m)
+        else:
+            out.add(t, m)
+    if out is not None:
+        out.parts = (a, b)
+    return out
+
+
+def _part_of(part, whole):
+    """``part``'s last blob lies inside ``whole``'s last box."""
+    pb, wb = part.blobs[-1], whole.blobs[-1]
+    x0, y0, x1, y1 = wb.bbox
+    return x0 - 1 <= pb.u <= x1 + 1 and y0 - 1 <= pb.v <= y1 + 1 and pb.mask_area <= wb.mask_area
+
+
+def _shadow_like(a, b):
+    """``a`` looks like the shadow or reflection of ``b``: dimmer or darker, and blurred.
+
+    A shadow darkens the background and has soft edges (the penumbra); a reflection is
+    a dimmer copy. Both move with the object, at about its size. ``a`` counts as one when
+    its area is 0.4 to 2.5 times ``b``'s and its edges are at least 1.6 times as wide as
+    ``b``'s, or its contrast is below half of ``b``'s while its edges are no sharper.
+    """
+    if _inside(a.blobs[-1], b.blobs[-1]) or _inside(b.blobs[-1], a.blobs[-1]):
+        return False       # one holds the other: a highlight on a ball, not a copy
+    ratio = a.blobs[-1].mask_area / max(b.blobs[-1].mask_area, 1)
+    if not 0.4 <= ratio <= 2.5:
+        return False       # a shadow or a reflection is a copy of the object's size
+    ca, wa = a.sharpness()
+    cb, wb = b.sharpness()
+    if not (np.isfinite(ca) and np.isfinite(cb) and np.isfinite(wa) and np.isfinite(wb)):
+        return False
+    if wa >= 1.6 * wb and (a.polarity < 0 or ca <= cb):
+        return True
+    return ca < 0.5 * cb and wa >= wb
+
+
 class Acquirer:
-    """Tentative tracklets of moving blobs; hands over the straw when one is steady.
+    """Tentative tracklets of moving blobs; hands over the object when one is clear.
 
     Parameters
     ----------
@@ -164,6 +373,21 @@ class Acquirer:
     tiny_px : int
         A candidate with a blob of fewer pixels than this is dropped while one without
         is steady too.
+
+    Notes
+    -----
+    A steady tracklet is handed over after ``confirm + 1`` frames when nothing else moves
+    in the frame and its mask area stayed within a factor of 1.5.
+    Otherwise (a person, a machine part, another object in view) only a tracklet that
+    flies (:meth:`Tracklet.flying`) is: among several, shadows and reflections of
+    another candidate are dropped, parts of one object of both polarities (a dark ball
+    with a highlight) give way to the whole, the one nearest the centre line wins when
+    one is given, else the fastest when it is at least 1.5 times as fast as the others
+    (a straw leaves the blade's tip faster than any part of the rotor). Two that fly
+    together, near each other (a bear under its balloon), are one compound object.
+    Otherwise the
+    choice is ambiguous: :attr:`ambiguous` lists the candidates and nothing is handed
+    over.
     """
 
     def __init__(self, *, confirm, max_step, min_motion, centre_line=None, tiny_px=0):
@@ -173,12 +397,52 @@ class Acquirer:
         self.min_motion = min_motion
         self.centre_line = centre_line
         self.tracklets = []
+        self.ambiguous = []
+        self.waited = 0
 
     def reset(self):
         self.tracklets = []
+        self.ambiguous = []
+        self.waited = 0
+
+    def _associate(self, t, blobs):
+        live = [tr for tr in self.tracklets if t - tr.last_t <= 1.5]
+        if not live or not blobs:
+            return live, set(), set()
+        pu = np.array([b.u for b in blobs])
+        pv = np.array([b.v for b in blobs])
+        pa = np.array([max(b.mask_area, 1) for b in blobs], float)
+        ppol = np.array([b.polarity for b in blobs])
+        pred = np.array([tr.predict(t) for tr in live])
+        gate = np.empty(len(live))
+        area = np.empty(len(live))
+        pol = np.empty(len(live))
+        for i, tr in enumerate(live):
+            area[i] = max(tr.blobs[-1].mask_area, 1)
+            pol[i] = tr.polarity
+            if len(tr.points) == 1:
+                gate[i] = self.max_step
+            else:
+                step = np.hypot(*(np.array(tr.points[-1][1:]) - np.array(tr.points[-2][1:])))
+                gate[i] = max(3.0, 0.5 * step + 3.0) + 0.1 * np.sqrt(area[i])
+        dist = np.hypot(pu[None, :] - pred[:, 0:1], pv[None, :] - pred[:, 1:2])
+        ratio = pa[None, :] / area[:, None]
+        ok = ((dist <= gate[:, None]) & (ppol[None, :] == pol[:, None])
+              & (ratio <= 4.0) & (ratio >= 0.25))
+        ii, jj = np.nonzero(ok)
+        order = np.argsort(dist[ii, jj], kind="stable")
+        taken_tr, used = set(), set()
+        for k in order:
+            i, j = int(ii[k]), int(jj[k])
+            if i in taken_tr or j in used:
+                continue
+            live[i].add(t, blobs[j])
+            taken_tr.add(i)
+            used.add(j)
+        return live, taken_tr, used
 
     def update(self, t, blobs, *, accept=None):
-        """Associate this frame's blobs; return the chosen steady tracklet or None.
+        """Associate this frame's blobs; return the chosen tracklet or None.
 
         Parameters
         ----------
@@ -189,32 +453,11 @@ class Acquirer:
             ``accept(tracklet) -> bool``: a further test a candidate must pass (e.g.
             consistency with where a lost straw should be).
         """
-        live = [tr for tr in self.tracklets if t - tr.last_t <= 1.5]
-        used = set()
-        pairs = []
-        for i, tr in enumerate(live):
-            p = tr.predict(t)
-            pol = tr.blobs[-1].polarity
-            for j, b in enumerate(blobs):
-                if b.polarity != pol:
-                    continue
-                dist = float(np.hypot(b.u - p[0], b.v - p[1]))
-                gate = self.max_step if len(tr.points) == 1 else max(
-                    3.0, 0.5 * np.hypot(*(np.array(tr.points[-1][1:])
-                                          - np.array(tr.points[-2][1:]))) + 3.0)
-                if dist <= gate:
-                    pairs.append((dist, i, j))
-        pairs.sort()
-        taken_tr = set()
-        for _dist, i, j in pairs:
-            if i in taken_tr or j in used:
-                continue
-            live[i].add(t, blobs[j])
-            taken_tr.add(i)
-            used.add(j)
+        live, taken_tr, used = self._associate(t, blobs)
         fresh = [Tracklet(t, b) for j, b in enumerate(blobs) if j not in used]
         kept = [tr for i, tr in enumerate(live) if i in taken_tr]
         self.tracklets = kept + fresh
+        self.ambiguous = []
         ready = [tr for tr in kept if tr.steady(self.confirm, min_motion=self.min_motion)
                  and (accept is None or accept(tr))]
         if not ready:
@@ -224,10 +467,137 @@ class Acquirer:
         sizes = [min(b.mask_area for b in tr.blobs[-self.confirm:]) for tr in ready]
         if max(sizes) >= self.tiny_px:
             ready = [tr for tr, s in zip(ready, sizes) if s >= self.tiny_px]
+        if (len(ready) == 1 and len(ready[0].points) > self.confirm
+                and ready[0].area_ratio() <= 1.5 and self._alone(ready[0], blobs)):
+            # the one thing moving, keeping its size (a hand throwing changes shape)
+            return ready[0]
+        flying = [tr for tr in ready if tr.flying() and not self._part(tr, ready)]
+        if not flying:
+            return None
+        flying = self._distinct(flying)
+        flying = self._together(flying, ready)
         if self.centre_line is not None:
-            return min(ready, key=lambda tr: line_distance(tr.points[-1][1], tr.points[-1][2],
-                                                           self.centre_line))
-        return max(ready, key=lambda tr: tr.speed())
+            return min(flying, key=lambda tr: line_distance(tr.points[-1][1], tr.points[-1][2],
+                                                            self.centre_line))
+        speeds = sorted(((tr.speed(), k) for k, tr in enumerate(flying)), reverse=True)
+        if len(flying) > 1 and speeds[0][0] < 1.5 * speeds[1][0]:
+            self.ambiguous = flying
+            return None
+        best = flying[speeds[0][1]]
+        # another object about to fly as well, as fast: wait until it is clear
+        # whether it does (two balls thrown together: the first to have travelled
+        # twice its size is not therefore the one)
+        members = {id(best)} | {id(q) for q in best.parts}
+        rivals = [tr for tr in ready if id(tr) not in members and tr.almost_flying()
+                  and tr.speed() * 1.5 > best.speed() and not self._part(tr, ready)
+                  and not any(_co_moving(tr, q) for q in (best, *best.parts))]
+        if rivals and self.waited < 4 * self.confirm:
+            self.waited += 1
+            return None
+        self.waited = 0
+        return best
+
+    def _alone(self, tr, blobs):
+        """Nothing but ``tr``'s blob (and its other-polarity views) moves in this frame."""
+        own = tr.blobs[-1]
+        x0, y0, x1, y1 = own.bbox
+        for b in blobs:
+            if b is own or b.mask_area < max(self.tiny_px, 0.1 * own.mask_area):
+                continue
+            bx0, by0, bx1, by1 = b.bbox
+            if bx0 <= x1 + 2 and x0 <= bx1 + 2 and by0 <= y1 + 2 and y0 <= by1 + 2:
+                continue      # the same object seen in the other polarity, or touching
+            return False
+        return True
+
+    def _part(self, tr, ready):
+        """``tr`` is a piece of a larger object that moves with it.
+
+        A piece of the same polarity near a larger steady blob that moves with it (within
+        a quarter of the larger one's size), or of the other polarity, no rod and at
+        least a tenth of its size
+        (an object split where it matches the background), or of the other polarity
+        and at least a third of its size: the object is taken when the whole flies
+        (its size sets how far it must travel first). A straw riding a large blade of
+        the other polarity is not a piece of it.
+        """
+        own = tr.blobs[-1]
+        for other in ready:
+            ob = other.blobs[-1]
+            if (other is tr or ob.mask_area <= own.mask_area
+                    or not _touch(own, ob, gap=max(2.0, 0.25 * np.sqrt(ob.mask_area)))):
+                continue
+            if (ob.polarity != 0 and ob.polarity != own.polarity
+                    and ob.mask_area > 3.0 * own.mask_area and not _inside(own, ob)
+                    and (_rodlike(own) or ob.mask_area > 10.0 * own.mask_area)):
+                continue
+            if _co_moving(tr, other) and not _shadow_like(other, tr):
+                return True
+        return False
+
+    def _together(self, flying, ready):
+        """Objects that fly together, tied or side by side within the larger one's
+        size (a bear under its balloon), are one: their compound is taken. Not rods: a
+        straw riding a blade moves with it until it leaves."""
+        out = []
+        for a in flying:
+            if _rodlike(a.blobs[-1]):     # a straw riding a blade is not tied to it
+                out.append(a)
+                continue
+            partners = []
+            for b in ready:
+                if b is a or any(b is q for q in a.parts):
+                    continue
+                ab, bb = a.blobs[-1], b.blobs[-1]
+                size = np.sqrt(max(ab.mask_area, bb.mask_area))
+                if (bb.mask_area < 0.05 * ab.mask_area or _rodlike(bb)
+                        or _inside(bb, ab) or _inside(ab, bb)   # a part of it, or it of one
+                        or not _touch(ab, bb, gap=size)
+                        or not _co_moving(a, b) or _shadow_like(b, a) or _shadow_like(a, b)
+                        or len(b.points) < self.confirm):
+                    continue
+                partners.append(b)
+            c = a
+            for b in sorted(partners, key=lambda q: -q.blobs[-1].mask_area):
+                merged = _compound(c, b)
+                if merged is None or len(merged.points) < self.confirm:
+                    continue
+                merged.parts = (*(c.parts or (c,)), b)
+                c = merged
+            out.append(c)
+        # one compound per pair
+        seen, uniq = [], []
+        for tr in out:
+            key = {id(q) for q in tr.parts} or {id(tr)}
+            if any(key & k for k in seen):
+                continue
+            seen.append(key)
+            uniq.append(tr)
+        return uniq
+
+    def _distinct(self, flying):
+        """Drop shadows, reflections and parts of another candidate."""
+        drop = set()
+        for i, a in enumerate(flying):
+            for j, b in enumerate(flying):
+                if i == j or i in drop or j in drop or not _co_moving(a, b):
+                    continue
+                if _shadow_like(a, b):
+                    drop.add(i)
+                elif a.polarity != 0 and b.polarity == 0 and _part_of(a, b):
+                    # a part of a two-polarity whole: the whole, unless the other
+                    # part dwarfs this one (a straw riding a large blade)
+                    others = [c for c in flying if c is not a and c.polarity == -a.polarity
+                              and _part_of(c, b) and _co_moving(c, b)]
+                    big = max((c.blobs[-1].mask_area for c in others), default=0)
+                    if big <= 3.0 * a.blobs[-1].mask_area:
+                        drop.add(i)
+                elif a.polarity == 0 and b.polarity != 0 and _part_of(b, a):
+                    others = [c for c in flying if c is not b and c.polarity == -b.polarity
+                              and _part_of(c, a)]
+                    if not others:
+                        drop.add(i)   # a whole made of one part: the part itself
+        return [tr for k, tr in enumerate(flying) if k not in drop]
 
 
 class Intruders:

@@ -13,8 +13,19 @@ the samples. The noise is measured, not assumed:
   static edges (the ruler's ticks, machine parts) than in flat areas, but, unlike the
   spread of the samples about the median, not where the blade passes often.
 
-The segmentation threshold of a pixel is ``max(k * noise_sigma, k * noise_map)`` times
-``sqrt(1 + 1/n)`` for the background's own noise (:meth:`Background.threshold`).
+- ``edge_noise``: compressed and phone footage (and a camera that shakes by a fraction of
+  a pixel) changes pixels more where the scene has edges and texture: the extra noise is
+  measured against the local gradient on a sparse grid of the sampled frames, the spread
+  of each pixel about the median beyond the flat areas' noise; none for a static camera
+  with only sensor noise. The same spread in flat areas is a floor under
+  ``noise_sigma``: compressed video repeats blocks exactly from frame to frame (no
+  difference, no noise by the first measure) and moves them by a few grey levels against
+  the background at each refresh (:func:`sample_spread`).
+
+The segmentation threshold of a pixel is
+``k * sqrt(max(noise_sigma, noise_map)^2 + edge(g)^2)`` (``edge(g)`` the edge noise at
+the background's gradient magnitude g, the largest in the pixel's 3 x 3 neighbourhood) times
+``sqrt(1 + 1.57/n)`` for the background's own noise (:meth:`Background.threshold`).
 
 Example
 -------
@@ -32,7 +43,7 @@ import numpy as np
 from vidtrack.errors import TrackError
 
 __all__ = ["Background", "estimate_background", "sample_background", "measure_noise",
-           "median_images", "sample_indices", "MAD_TO_SIGMA"]
+           "median_images", "sample_indices", "sample_spread", "gradient_max3", "MAD_TO_SIGMA"]
 
 #: Factor from a median absolute deviation to the standard deviation of a normal law.
 MAD_TO_SIGMA = 1.482602218505602
@@ -59,6 +70,11 @@ class Background:
         Source indices of the sampled frames (empty when not known).
     dtype : numpy.dtype
         The footage's pixel type (``uint8`` or ``uint16``).
+    edge_noise : tuple of (float, float)
+        Noise that grows with the scene's gradient: pairs ``(g, extra)``, the gradient
+        magnitude (grey levels/px) and the extra noise there (grey levels), interpolated
+        between them (:func:`sample_spread`). Empty for a static camera with sensor
+        noise only; compressed phone footage has some.
     """
 
     image: np.ndarray
@@ -67,10 +83,13 @@ class Background:
     n_samples: int
     frames: tuple = ()
     dtype: np.dtype = np.dtype(np.uint8)
+    edge_noise: tuple = ()
 
     def __repr__(self):
-        return (f"Background(shape={tuple(self.image.shape)}, noise_sigma={self.noise_sigma:.3g}, "
-                f"n_samples={self.n_samples}, dtype={np.dtype(self.dtype).name})")
+        jit = (f", edge_noise={max(e for _, e in self.edge_noise):.3g}"
+               if self.edge_noise else "")
+        return (f"Background(shape={tuple(self.image.shape)}, noise_sigma={self.noise_sigma:.3g}"
+                f"{jit}, n_samples={self.n_samples}, dtype={np.dtype(self.dtype).name})")
 
     @property
     def shape(self):
@@ -89,20 +108,123 @@ class Background:
         Returns
         -------
         numpy.ndarray
-            ``k * max(noise_sigma, noise_map) * sqrt(1 + 1.57 / n_samples)``: the
-            difference of a frame and a median of n samples has that extra variance
-            (the median's variance is pi/2 times the mean's).
+            ``k * sqrt(max(noise_sigma, noise_map)^2 + edge(g)^2) * sqrt(1 +
+            1.57 / n_samples)``, ``edge(g)`` the :attr:`edge_noise` at the background's
+            gradient magnitude g (largest in the 3 x 3 neighbourhood): the difference of
+            a frame and a median of n samples has that extra variance (the median's
+            variance is pi/2 times the mean's).
         """
         inflate = np.sqrt(1.0 + 1.5708 / max(self.n_samples, 1))
         base = np.maximum(self.noise_map, np.float32(self.noise_sigma))
+        if self.edge_noise:
+            gs, es = zip(*self.edge_noise)
+            g = gradient_max3(self.image)
+            edge = np.interp(g, gs, es, left=0.0).astype(np.float32)
+            base = np.sqrt(base * base + edge * edge)
         return (base * np.float32(k * inflate)).astype(np.float32)
 
     def to_dict(self):
         """A JSON-ready summary (not the images)."""
         return {"shape": list(self.shape), "noise_sigma": float(self.noise_sigma),
                 "noise_map_median": float(np.median(self.noise_map)),
+                "edge_noise": [list(p) for p in self.edge_noise],
                 "n_samples": int(self.n_samples), "frames": [int(f) for f in self.frames],
                 "dtype": str(np.dtype(self.dtype))}
+
+
+def gradient_max3(image):
+    """Gradient magnitude of ``image`` (grey levels/px), the largest in each 3 x 3."""
+    import cv2
+
+    img = np.asarray(image, np.float32)
+    gx = cv2.Sobel(img, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)
+    gy = cv2.Sobel(img, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)
+    return cv2.dilate(cv2.magnitude(gx, gy), np.ones((3, 3), np.uint8))
+
+
+def sample_spread(samples, image, sigma, *, repeats=False, max_pixels=120_000):
+    """Noise of flat areas and the noise that grows with the gradient, from the samples.
+
+    Each pixel's spread about the median over the samples (the mean of the smaller 60 %
+    of ``|f - b|``, as a Gaussian sigma: robust to a moving object covering it in a
+    third of the samples; the per-bin medians below are robust to more) is measured
+    on a sparse grid and compared with the background's gradient g there
+    (:func:`gradient_max3`):
+
+    - flat pixels (g < 2 ``sigma``): their median spread s0 is the noise floor of the
+      footage; when consecutive frames mostly repeat exactly (``repeats``: compressed
+      video that skips unchanged blocks, whose differences say there is no noise while
+      a block jumps by a few grey levels at a refresh), the 95th percentile of all
+      their deviations over 1.96 (the tail counts). Sensor noise alone gives ``sigma``
+      again;
+    - textured pixels, in bins of g (a factor of 2 wide, from 4 s0 up): the bin's median
+      spread, less 1.5 s0 in quadrature, is the noise that follows the gradient there
+      (sub-pixel shake, compression, a phone's sharpening and tone mapping) when it is
+      at least 2 s0; none at all unless some bin adds s0 or more. Sensor noise alone
+      gives none.
+
+    Parameters
+    ----------
+    samples : sequence of numpy.ndarray
+        The frames the background is the median of (at least 5 for a result).
+    image : numpy.ndarray
+        The background (their median).
+    sigma : float
+        The noise measured from consecutive frames.
+    repeats : bool
+        Consecutive frames mostly repeat exactly (the median of their differences is 0).
+
+    Returns
+    -------
+    (float, tuple)
+        The flat areas' noise (at least ``sigma``), and the edge noise as pairs
+        ``(g, extra)`` (grey levels/px, grey levels), g increasing, ``extra``
+        non-decreasing; empty when the texture adds nothing.
+    """
+    k = len(samples)
+    if k < 5:
+        return float(sigma), ()
+    rows, cols = image.shape
+    step = max(1, int(np.ceil(np.sqrt(rows * cols / max_pixels))))
+    med = np.asarray(image, np.float32)[::step, ::step]
+    stack = np.stack([np.asarray(s)[::step, ::step] for s in samples]).astype(np.float32)
+    dev = np.abs(stack - med)
+    # the mean of the smaller 60 % of the deviations, as a Gaussian sigma (for |N(0, 1)|
+    # below its 60th percentile the mean is 0.3963): robust to a moving object in a
+    # third of the samples (a blade sweeping past), and not coarsened by integer grey
+    # levels as a median is
+    q = max(1, int(round(0.6 * k)))
+    low = np.partition(dev, q - 1, axis=0)[:q]
+    spread = low.mean(axis=0) * np.float32(1.0 / 0.3963)
+    g = gradient_max3(image)[::step, ::step]
+    flat = g < 2.0 * sigma
+    s0 = float(sigma)
+    if np.count_nonzero(flat) >= 100:
+        # from the tail of the flat pixels' deviations, pooled over the samples (the
+        # 95th percentile is 1.96 sigma of a normal law): compression's noise is mostly
+        # exact repeats and now and then a jump of several grey levels, which a
+        # threshold of k sigma must clear
+        s0 = max(s0, float(np.median(spread[flat])))
+        if repeats:
+            s0 = max(s0, float(np.percentile(dev[:, flat], 95)) / 1.96)
+    curve = []
+    lo = 4.0 * s0
+    top = float(g.max()) if g.size else 0.0
+    while lo < top:
+        sel = (g >= lo) & (g < 2.0 * lo)
+        if np.count_nonzero(sel) >= 100:
+            s50 = float(np.median(spread[sel]))
+            extra = float(np.sqrt(max(0.0, s50 * s50 - (1.5 * s0) ** 2))) \
+                if s50 >= 2.0 * s0 else 0.0
+            curve.append((float(np.median(g[sel])), extra))
+        lo *= 2.0
+    if not curve or max(e for _, e in curve) < s0:
+        return s0, ()
+    out, run = [(2.0 * s0, 0.0)], 0.0
+    for gc, e in curve:
+        run = max(run, e)
+        out.append((gc, run))
+    return s0, tuple(out)
 
 
 def _batcher_pairs(n):
@@ -176,6 +298,14 @@ def _noise_from_diffs(diffs, max_pixels=1_000_000):
         # the pixels that flip by one level (E|X| = sqrt(2/pi) sigma for a normal X).
         return max(0.5, float(np.mean(allv)) / np.sqrt(2.0 / np.pi) / np.sqrt(2.0))
     return max(0.5, MAD_TO_SIGMA * mad / np.sqrt(2.0))
+
+
+def _repeats(diffs, max_pixels=200_000):
+    """Consecutive frames mostly repeat exactly: the median absolute difference is 0."""
+    size = diffs[0].size
+    step = max(1, int(np.ceil(size * len(diffs) / max_pixels)))
+    allv = np.concatenate([d.reshape(-1)[::step] for d in diffs])
+    return float(np.median(allv)) == 0.0
 
 
 def measure_noise(frames):
@@ -257,10 +387,13 @@ def estimate_background(samples, *, pairs, frames=()):
     image = median_images(samples).astype(np.float32)
     diffs = [np.abs(b.astype(np.float32) - a) for a, b in pairs[:4]]
     sigma = _noise_from_diffs(diffs)
+    repeats = _repeats(diffs)
+    floor, edge = sample_spread(samples, image, sigma, repeats=repeats)
+    sigma = max(sigma, floor)
     noise_map = _pair_noise_map(pairs, sigma)
     return Background(image=image, noise_sigma=float(sigma), noise_map=noise_map,
                       n_samples=len(samples), frames=tuple(int(f) for f in frames),
-                      dtype=np.dtype(dtype))
+                      dtype=np.dtype(dtype), edge_noise=edge)
 
 
 def sample_indices(n_frames, samples):

@@ -11,23 +11,34 @@ How it works (details in ``docs/tracker.md``):
 
 1. **Background and noise** (:mod:`vidtrack.track.background`): the per-pixel median of frames
    spread over the first part of the footage (frames the pass decodes anyway: no
-   second decoding), the noise from the MAD of frame differences and a per-pixel noise
-   map; the threshold is ``k_sigma`` times the noise.
-2. **Finding the straw** while it is not followed: moving blobs of the whole frame
-   (block-reduced, cheap) start tentative tracklets; one seen in 3 consecutive frames,
-   moving steadily, is the straw (nearest the stream's centre line when one is given).
+   second decoding), the noise from the MAD of frame differences, a per-pixel noise
+   map, a floor for compressed video that repeats blocks, and the extra noise of edges
+   and texture (a shaking phone); the threshold is ``k_sigma`` times the noise.
+2. **Finding the object** while it is not followed: moving blobs of the whole frame
+   (block-reduced, cheap), each polarity and, where an object shows both, the whole,
+   start tentative tracklets. The one thing moving is taken once steady; among several
+   (a person, a machine part, a shadow) the one that *flies*: travelled twice its size
+   along a quadratic path in time, keeping its size. Shadows and reflections of it
+   and its parts give way; two objects tied together are one; the fastest by half
+   again wins (a straw leaving the rotor); else the choice is ambiguous and the
+   TrackError names the candidates with the ``target`` line to add. With a
+   ``target`` the object at that pixel is taken and followed both ways in time.
 3. **Following it**: only a region of interest around the position predicted from the
-   last clean positions is segmented; among its blobs the straw is the one nearest the
-   prediction within a gate, changes are counted only *towards* the straw's own grey
-   level (a shadow is not the straw), and another blob is never the straw.
-4. **Measuring it**: the coverage-weighted centroid (unbiased over a textured
-   background), area, orientation and length from second moments
-   (:mod:`vidtrack.track._segment`).
-5. **Afterwards** (:mod:`vidtrack.track._refine`): points off the smooth path are flagged,
-   the release (first frame of free flight) is found where the path's strong
-   acceleration on the rotor ends (not in the ``top`` view, which sees the rotor's plane
-   edge-on: there :func:`vidtrack.world.orthogonal.merge_tracks` carries the release over from the
-   ``front`` view), short gaps are bridged.
+   last clean positions is segmented; among its blobs the object is the one nearest the
+   prediction within a gate (a speck is not it), changes are counted only *towards*
+   its own grey level (a shadow is not the straw) until it shows both polarities.
+4. **Measuring it** (:mod:`vidtrack.track._segment`): a rod (a straw) by its coverage
+   (unbiased over a textured background); an object of one grey level by its fully
+   covered core and the ring round it read against its surroundings (what is attached
+   beyond, a shadow, cut off); any other object by its silhouette (holes filled).
+   A frame unlike the object's clean frames (grown, shrunk at a stroke, a rod's shape
+   broken by something across it) is flagged, not measured as the object.
+5. **Afterwards** (:mod:`vidtrack.track._refine`): sizes off the clean frames round them
+   and points off the smooth path are flagged, the release (first frame of free
+   flight) is found where the path's strong acceleration on the rotor ends, while it
+   touched the rotor (not in the ``top`` view, which sees the rotor's plane edge-on:
+   there :func:`vidtrack.world.orthogonal.merge_tracks` carries the release over from
+   the ``front`` view), short gaps are bridged.
 
 Flags (bit field, column ``flags``; a frame is usable for fitting only when it is 0):
 
@@ -41,9 +52,12 @@ value   name             meaning
 16      PREDICTED        gap bridged: u, v interpolated from the clean neighbours
 32      PRE_RELEASE      before the detected release (still on the blade)
 64      OUTLIER          off the smooth path of its clean neighbours
+128     APPEARANCE       unlike the object's clean frames (part of it hidden, or two
+                         grey levels where it has one): not measured as the object
 ======  ===============  ===========================================================
 """
 
+import copy
 import logging
 import math
 import statistics
@@ -51,12 +65,15 @@ from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import cv2
 import numpy as np
 
 from vidtrack.track import _refine
 from vidtrack._progress import progress
-from vidtrack.track._segment import Segmenter, measure, other_behind, read_level, work_margin
-from vidtrack.track._select import Acquirer, Intruders, Predictor
+from vidtrack.track._segment import (Segmenter, edge_stats, measure, measure_silhouette,
+                                     measure_solid, other_behind, read_level, trim_attached,
+                                     work_margin)
+from vidtrack.track._select import Acquirer, Intruders, Predictor, Tracklet
 from vidtrack.track.background import Background, estimate_background, sample_indices
 from vidtrack.errors import TrackError
 
@@ -66,7 +83,8 @@ if TYPE_CHECKING:
     import pandas
 
 __all__ = ["Track", "track", "track_parts", "FLAGS", "BORDER", "BLADE", "MERGED", "LOST",
-           "PREDICTED", "PRE_RELEASE", "OUTLIER", "TRACK_COLUMNS", "describe_flags"]
+           "PREDICTED", "PRE_RELEASE", "OUTLIER", "APPEARANCE", "TRACK_COLUMNS",
+           "describe_flags"]
 
 BORDER = 1
 BLADE = 2
@@ -75,16 +93,30 @@ LOST = 8
 PREDICTED = 16
 PRE_RELEASE = 32
 OUTLIER = 64
+APPEARANCE = 128
 
 #: Flag names by bit value.
 FLAGS = {BORDER: "border", BLADE: "blade", MERGED: "merged", LOST: "lost",
-         PREDICTED: "predicted", PRE_RELEASE: "pre_release", OUTLIER: "outlier"}
+         PREDICTED: "predicted", PRE_RELEASE: "pre_release", OUTLIER: "outlier",
+         APPEARANCE: "appearance"}
 
 #: Columns of :attr:`Track.data`, in order.
 TRACK_COLUMNS = ("frame", "t_s", "u_px", "v_px", "area_px", "angle_rad", "length_px", "flags")
 
+#: A rod's coverage share beyond its band (``Blob.off_axis``) above which something is
+#: attached across it (0 for one rod, blurred or not; 0.1-0.17 for a thin rod crossing a
+#: straw at 40 degrees).
+OFF_AXIS_MAX = 0.04
+
 #: Memory the start-of-footage buffer for the background may take (bytes).
 _WARMUP_BYTES = 96 * 1024 * 1024
+#: Memory the frames before a ``target`` frame may take for following backwards (bytes);
+#: earlier frames are read again.
+_BACK_BYTES = 128 * 1024 * 1024
+#: Boxes of moving pixels looked at per frame while searching (largest first).
+_SEARCH_BOXES = 16
+#: Components per polarity and box measured while searching (largest first).
+_SEARCH_PARTS = 24
 
 
 class Cancelled(Exception):
@@ -231,6 +263,12 @@ class _Follow:
     def __init__(self):
         self.levels = deque(maxlen=9)
         self.areas = deque(maxlen=9)
+        self.covs = deque(maxlen=9)      # coverage sums (px^2) of the clean frames
+        self.grown_run = []              # sizes of the grown frames since the last clean
+        self.cores = deque(maxlen=9)     # fully covered pixels of an object of one level
+        self.fills = deque(maxlen=9)     # a rod's area / (length x width)
+        self.uniforms = deque(maxlen=9)  # its share of such pixels inside its silhouette
+        self.last_cov = None
         self.lengths = deque(maxlen=9)
         self.widths = deque(maxlen=9)
         self.errors = deque(maxlen=16)
@@ -242,6 +280,12 @@ class _Follow:
         # smoothly from frame to frame, a merge jumps
         self.last_size = None
         self.smooth = True
+        # an object of both polarities (segmented so), and one measured by its
+        # silhouette (anything but a rod: the coverage by one grey level is a rod's)
+        self.mixed = False
+        self.compact = False
+        # (levels, areas, lengths, widths) of its first clean frames
+        self.snapshot = None
 
     @property
     def level(self):
@@ -268,19 +312,75 @@ class _Follow:
         return (self.last_size is not None and self.smooth
                 and self._small_step(blob.mask_area, blob.length))
 
+    def become_mixed(self):
+        """Measure the object by its silhouette from now on (its sizes start again)."""
+        self.mixed = True
+        self.compact = True
+        self.areas.clear()
+        self.covs.clear()
+        self.last_cov = None
+        self.lengths.clear()
+        self.widths.clear()
+        self.last_size = None
+        self.smooth = True
+
+    def regrown(self, blob, *, frames=6, spread=1.3):
+        """``blob`` ends a run of ``frames`` consecutive grown frames of one size."""
+        self.grown_run.append((blob.mask_area, blob.area, blob.length, blob.width))
+        run = self.grown_run[-frames:]
+        if len(run) < frames:
+            return False
+        a = [r[0] for r in run]
+        return max(a) <= spread * min(a)
+
+    def relearn(self):
+        """Take the last grown frames' sizes as the reference."""
+        run = self.grown_run[-6:]
+        self.areas.clear()
+        self.covs.clear()
+        self.lengths.clear()
+        self.widths.clear()
+        for m, c, ln, w in run:
+            self.areas.append(m)
+            if np.isfinite(c):
+                self.covs.append(c)
+            if np.isfinite(ln):
+                self.lengths.append(ln)
+                self.widths.append(w)
+        self.grown_run = []
+        self.smooth = True
+
     def seen(self, blob):
         """Record the size of a followed frame that was not clean."""
         if self.last_size is not None:
             self.smooth = self.smooth and self._small_step(blob.mask_area, blob.length)
             self.last_size = (blob.mask_area, blob.length)
 
+    def trims(self):
+        """An object of one grey level (learnt from 3 clean frames): what is attached
+        beyond its core is cut off."""
+        return (not self.mixed and len(self.uniforms) >= 3
+                and statistics.median(self.uniforms) >= 0.8)
+
     def add(self, blob):
+        fill = _rod_fill(blob)
+        if fill is not None:
+            self.fills.append(fill)
+        if getattr(blob, "core", None):
+            self.cores.append(blob.core)
+            self.uniforms.append(blob.uniform)
+        self.grown_run = []
         self.last_size = (blob.mask_area, blob.length)
         self.smooth = True
         self.areas.append(blob.mask_area)
+        if np.isfinite(blob.area):
+            self.covs.append(blob.area)
         if np.isfinite(blob.length):
             self.lengths.append(blob.length)
             self.widths.append(blob.width)
+        if self.snapshot is None and len(self.areas) >= 5:
+            self.snapshot = (list(self.levels), list(self.areas), list(self.lengths),
+                             list(self.widths))
 
 
 _TOP_RELEASE_NOTE = ("not looked for in the top view: it sees the rotor's plane edge-on, "
@@ -297,7 +397,7 @@ def _release_evidence(u, flags, *, clear_run=10):
     straw is often merged with it, and it may be clear of it for a few frames before
     the release); later merged frames (another straw crossing) do not.
     """
-    ok = np.isfinite(u) & ((flags & (BORDER | LOST | PREDICTED | OUTLIER)) == 0)
+    ok = np.isfinite(u) & ((flags & (BORDER | LOST | PREDICTED | OUTLIER | APPEARANCE)) == 0)
     clean = (flags == 0) & np.isfinite(u)
     run = 0
     for i, c in enumerate(clean):
@@ -309,9 +409,119 @@ def _release_evidence(u, flags, *, clear_run=10):
     return ok
 
 
+def _rod_fill(blob):
+    """Coverage area over ``length x width`` of the coverage's moments (1 for a
+    rectangle, less for a blurred thin rod, much less for two rods across each other);
+    None when not measured."""
+    if not (np.isfinite(blob.area) and np.isfinite(blob.length) and np.isfinite(blob.width)):
+        return None
+    box = blob.length * blob.width
+    return float(blob.area / box) if box > 0 else None
+
+
+def _opposite_touching(work, min_area):
+    """Pixels changed the other way (than the object's level) touching the object."""
+    opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
+    hug = cv2.dilate(work.sel, np.ones((5, 5), np.uint8))
+    return int(np.count_nonzero(hug & opp)) >= min_area
+
+
+def _shadow_beside(work):
+    """What touches the object in the other polarity is a shadow: its edges are
+    blurred (at least 1.4 times as wide as the object's)."""
+    opp = (work.d * work.den < 0) & (np.abs(work.d) > work.t)
+    near = cv2.dilate(work.sel, np.ones((9, 9), np.uint8)).view(bool)
+    _, w_opp = edge_stats(work, opp & near)
+    _, w_own = edge_stats(work, work.sel.view(bool))
+    return bool(np.isfinite(w_opp) and np.isfinite(w_own) and w_opp >= 1.4 * w_own)
+
+
+def _edge_width(parts):
+    """Edge width (px) of the larger parts (the mask-area weighted median)."""
+    parts = sorted((q for q in parts if np.isfinite(q.edge_w)), key=lambda q: q.edge_w)
+    if not parts:
+        return np.nan
+    half = 0.5 * sum(q.mask_area for q in parts)
+    run = 0.0
+    for q in parts:
+        run += q.mask_area
+        if run >= half:
+            return float(q.edge_w)
+    return float(parts[-1].edge_w)
+
+
+def _rodlike(blobs):
+    """A rod (a straw: long or thin), measured by its coverage; else an object of any
+    shape, measured by its silhouette."""
+    w = [b.width for b in blobs if np.isfinite(b.width)]
+    ln = [b.length for b in blobs if np.isfinite(b.length)]
+    if not w or not ln:
+        return True
+    w, ln = float(np.median(w)), float(np.median(ln))
+    return w < 4.0 or ln >= 3.0 * w
+
+
+def _target_index(target, fnums, name):
+    """Source index of the ``target``'s frame; TrackError when it is not in the footage."""
+    try:
+        frame, (tu, tv) = target
+        frame = int(frame) if float(frame) == int(frame) else None
+        tu, tv = float(tu), float(tv)
+    except (TypeError, ValueError):
+        raise TrackError(f"target must be (frame, (u_px, v_px)), got {target!r}") from None
+    if frame is None or not (np.isfinite(tu) and np.isfinite(tv)):
+        raise TrackError(f"target must be (frame, (u_px, v_px)) with an integer frame and a "
+                         f"finite pixel, got {target!r}")
+    i = frame - int(fnums[0])
+    if not 0 <= i < len(fnums):
+        raise TrackError(f"{name}: the target's frame {frame} is not in the footage (frames "
+                         f"{int(fnums[0])}..{int(fnums[-1])})")
+    return i
+
+
+def _target_blob(blobs, target, name, frame):
+    """The moving blob at the target's pixel: the one whose box holds it (the whole of
+    an object of both polarities before one of its parts, the largest part before a
+    highlight inside it), else the nearest within its own size."""
+    tu, tv = (float(x) for x in target[1])
+
+    def contains(b):
+        x0, y0, x1, y1 = b.bbox
+        return x0 - 1 <= tu <= x1 and y0 - 1 <= tv <= y1
+
+    inside = [b for b in blobs if contains(b)]
+    if inside:
+        # the whole object (both polarities) before a part, the largest part before a
+        # highlight or an opening inside it
+        return min(inside, key=lambda b: (b.polarity != 0, -b.mask_area))
+    near = [(float(np.hypot(b.u - tu, b.v - tv)), b) for b in blobs]
+    near = [(d, b) for d, b in near if d <= max(10.0, 2.0 * np.sqrt(b.mask_area))]
+    if near:
+        return min(near, key=lambda db: db[0])[1]
+    where = ""
+    if blobs:
+        b = min(blobs, key=lambda b: np.hypot(b.u - tu, b.v - tv))
+        where = f"; the nearest is at ({b.u:.0f}, {b.v:.0f})"
+    raise TrackError(f"{name}: nothing moves at the target ({tu:g}, {tv:g}) in frame "
+                     f"{int(frame)}{where}")
+
+
+def _ambiguity_message(name, view, candidates, origin):
+    """One line: the candidates and the ``target`` line that settles it."""
+    where = []
+    for tr in sorted(candidates, key=lambda tr: tr.points[-1][1]):
+        f, (cu, cv) = tr.describe(int(origin))
+        where.append(f"frame {f} at ({cu:.0f}, {cv:.0f})")
+    f, (cu, cv) = sorted(candidates, key=lambda tr: -tr.speed())[0].describe(int(origin))
+    table = f"[views.{view}]" if view else "the view's table"
+    return (f"{name}: {len(candidates)} objects fly alike and none can be told to be the one "
+            f"to track: {'; '.join(where)}; name it in scene.toml {table}, e.g. "
+            f"target = {{ frame = {f}, at_px = [{cu:.0f}, {cv:.0f}] }}")
+
+
 def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
           max_gap=5, blade_region=None, centre_line_px=None, warmup_frames=None,
-          quiet=True, cancel=None):
+          quiet=True, cancel=None, target=None):
     """Track the straw through one view's footage.
 
     Parameters
@@ -349,6 +559,14 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
     cancel : threading.Event, optional
         Checked before each frame: once set, the pass stops with :class:`Cancelled`
         (another view failed or the user pressed Ctrl-C).
+    target : (int, (float, float)), optional
+        ``(frame, (u_px, v_px))``: the object to track is the moving one at that pixel
+        in that file frame (``scene.toml``: ``target = { frame = F, at_px = [u, v] }``).
+        It is followed forwards and backwards in time from there, and nothing else is
+        taken for it. Without it the object is found automatically: the one thing
+        moving, or the one flying (travelling smoothly along a ballistic path, keeping
+        its size; a person moving about does not); when several fly alike, the
+        TrackError names them and shows the ``target`` line to add.
 
     Returns
     -------
@@ -370,7 +588,7 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
     tr = Track.from_parts(track_parts(
         source, background=background, view=view, k_sigma=k_sigma, min_area_px=min_area_px,
         max_gap=max_gap, blade_region=blade_region, centre_line_px=centre_line_px,
-        warmup_frames=warmup_frames, quiet=quiet, cancel=cancel))
+        warmup_frames=warmup_frames, quiet=quiet, cancel=cancel, target=target))
     log.info("%s: %d frames tracked, %d usable; release frame %s (%s)", tr.view or "view",
              len(tr.data), int(np.count_nonzero(tr.usable)), tr.release_frame,
              tr.release_note)
@@ -381,7 +599,7 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
 
 def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
                 max_gap=5, blade_region=None, centre_line_px=None, warmup_frames=None,
-                quiet=True, cancel=None):
+                quiet=True, cancel=None, target=None):
     """:func:`track`'s work, returning the :class:`Track`'s fields as a dict, its rows as
     a dict of numpy arrays (``columns``): a worker process need not load pandas
     (:meth:`Track.from_parts` builds the Track)."""
@@ -434,6 +652,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
     length = np.full(n, np.nan)
     flags = np.full(n, LOST, dtype=np.int64)
     clean = np.zeros(n, bool)
+    solid = np.zeros(n, bool)     # measured as an object of any shape (not a rod)
 
     min_area = max(1, int(min_area_px))
     acq = Acquirer(confirm=3, max_step=0.25 * max(rows, cols), min_motion=0.3,
@@ -470,7 +689,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 boxes = [bx for bx in boxes
                          if max(bx[0] - p[0], p[0] - bx[2], bx[1] - p[1], p[1] - bx[3]) <= gate]
         rois = []
-        for x0, y0, x1, y1, _ in boxes[:8]:
+        for x0, y0, x1, y1, _ in boxes[:_SEARCH_BOXES]:
             r = [max(0, x0 - pad), max(0, y0 - pad), min(cols, x1 + pad), min(rows, y1 + pad)]
             for q in rois:
                 if r[0] < q[2] and q[0] < r[2] and r[1] < q[3] and q[1] < r[3]:
@@ -480,24 +699,85 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 rois.append(r)
         out = []
         for r in rois:
+            parts = {1: [], -1: []}
             for pol in (1, -1):
                 reg = seg.segment(frame, tuple(r), gain=gain, polarity=pol)
-                for b in reg.components(min_area, shape):
+                if any(c.touches_roi for c in reg.components(min_area, shape)):
+                    # the coarse box cut an object: look at a wider box
+                    w, h = r[2] - r[0], r[3] - r[1]
+                    r = [max(0, r[0] - w // 2 - pad), max(0, r[1] - h // 2 - pad),
+                         min(cols, r[2] + w // 2 + pad), min(rows, r[3] + h // 2 + pad)]
+                    reg = seg.segment(frame, tuple(r), gain=gain, polarity=pol)
+                comps = sorted(reg.components(min_area, shape), key=lambda c: -c.mask_area)
+                if len(comps) > _SEARCH_PARTS:     # compression noise: the small ones go
+                    comps = [c for c in comps[:_SEARCH_PARTS] if c.mask_area >= 3 * min_area]
+                for b in comps:
                     if blade is not None:
                         x0, y0, x1, y1 = b.bbox
                         if blade[y0:y1, x0:x1].all():
                             continue
                     lv = read_level(reg, b)
                     work = reg.work([b.label], lv, margin=work_margin(None, None, b.bbox))
+                    b.contrast, b.edge_w = edge_stats(work)
                     b.merged = other_behind(work, lv, width=None, min_area=min_area)
+                    b.core, _, b.uniform = trim_attached(work, reach_px=None)
+                    sil = measure_silhouette(work, copy.copy(b))
                     measure(work, b, lv)
                     if not b.area > 0:
                         continue
+                    if sil.area > 0:
+                        b.silhouette = (sil.u, sil.v, sil.area, sil.angle, sil.length,
+                                        sil.width)
                     b.level = lv
                     b.polarity = pol
                     b.index = i
                     out.append(b)
+                    parts[pol].append(b)
+            if parts[1] and parts[-1]:
+                out.extend(_wholes(i, frame, r, gain, parts))
         return out
+
+    def _wholes(i, frame, r, gain, parts):
+        """Objects made of parts of both polarities (a dark ball with its highlight)."""
+        reg = seg.segment(frame, tuple(r), gain=gain, polarity=0)
+        found = []
+        for b in reg.components(min_area, shape):
+            x0, y0, x1, y1 = b.bbox
+            inside = {pol: [q for q in parts[pol] if x0 <= q.u <= x1 and y0 <= q.v <= y1]
+                      for pol in (1, -1)}
+            if not inside[1] or not inside[-1]:
+                continue
+            area_of = {pol: sum(q.mask_area for q in inside[pol]) for pol in (1, -1)}
+            big = max((1, -1), key=lambda pol: area_of[pol])
+            small = -big
+            if area_of[small] < max(min_area, 0.03 * b.mask_area):
+                continue
+            # the smaller polarity inside the larger's box (a highlight, an opening),
+            # or parts side by side (a cup half lit, a plush toy's light and dark
+            # sides); a straw on a large blade is neither
+            outer = max(inside[big], key=lambda q: q.mask_area)
+            ox0, oy0, ox1, oy1 = outer.bbox
+            enclosed = all(ox0 <= q.bbox[0] and oy0 <= q.bbox[1] and q.bbox[2] <= ox1
+                           and q.bbox[3] <= oy1 for q in inside[small])
+            # (a rod riding a blade of the other polarity is its own object; a
+            # patch of another shape is a part, up to a tenth of the whole)
+            rods = any(_rodlike([q]) for q in inside[small])
+            if not enclosed and area_of[big] > (3.0 if rods else 10.0) * area_of[small]:
+                continue
+            # a shadow beside a bright object is not part of it: blurred edges
+            wb, wd = _edge_width(inside[1]), _edge_width(inside[-1])
+            if (not enclosed and np.isfinite(wb) and np.isfinite(wd)
+                    and (wd >= 1.6 * wb or wb >= 1.6 * wd)):
+                continue
+            work = reg.work([b.label], np.nan, margin=work_margin(None, None, b.bbox))
+            b.contrast, b.edge_w = edge_stats(work)
+            measure_silhouette(work, b)
+            if not b.area > 0:
+                continue
+            b.polarity = 0
+            b.index = i
+            found.append(b)
+        return found
 
     def lost_gate(t_new):
         """Where the lost straw may be now: (position, velocity, acceleration, gate)."""
@@ -529,12 +809,28 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
 
     def start_following(tr):
         f = _Follow()
+        f.mixed = tr.polarity == 0
+        f.compact = f.mixed or not _rodlike(tr.blobs)
         f.start = tr.blobs[0].index
-        for (t, bu, bv), b in zip(tr.points, tr.blobs):
-            fl = store(b.index, b, MERGED if b.merged else 0)
+        # a detection unlike the tracklet's others (twice the area, or a rod's shape
+        # broken by something across it) is not the object's alone
+        med_area = float(np.median([b.mask_area for b in tr.blobs]))
+        fills = [x for x in (_rod_fill(b) for b in tr.blobs) if x is not None]
+        med_fill = float(np.median(fills)) if fills else None
+        for k, b in enumerate(tr.blobs):
+            if f.compact and b.silhouette is not None:
+                b.u, b.v, b.area, b.angle, b.length, b.width = b.silhouette
+            t = tr.points[k][0]
+            bu, bv = b.u, b.v
+            fill = _rod_fill(b)
+            odd = b.mask_area > 1.4 * med_area or (
+                not f.compact and med_fill is not None and fill is not None
+                and fill < 0.8 * med_fill) or (not f.compact and b.off_axis > OFF_AXIS_MAX)
+            fl = store(b.index, b, MERGED if (b.merged or odd) else 0)
+            solid[b.index] = f.compact
             if np.isfinite(b.level):
                 f.levels.append(b.level)
-            if not fl & BORDER:
+            if not fl & (BORDER | MERGED) or (not odd and not fl & BORDER):
                 f.pred.add(t, bu, bv)
                 f.add(b)
         return f
@@ -561,18 +857,39 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                    min(rows, cv + hs + 1))
             if roi[2] - roi[0] < 2 or roi[3] - roi[1] < 2:
                 return False
-            reg = seg.segment(frame, roi, gain=gain, level=level)
+            if f.mixed:
+                reg = seg.segment(frame, roi, gain=gain, polarity=0)
+            else:
+                reg = seg.segment(frame, roi, gain=gain, level=level)
             blobs = reg.components(min_area, shape)
             best, best_d, best_score = None, np.inf, np.inf
+            ref_a = f.ref(f.areas, None) if len(f.areas) >= 3 else None
             for b in blobs:
                 dd = float(np.hypot(b.u - p[0], b.v - p[1]))
                 score = dd
                 if f.intruders.items and f.intruders.closer_to_intruder(tau[i], b, p):
                     score += gate  # the other straw's, as far as its motion says
+                if ref_a and b.mask_area < 0.25 * ref_a:
+                    score += gate  # a speck, not the object (unless nothing else)
                 if score < best_score:
                     best, best_d, best_score = b, dd, score
             if best is None or best_d > gate + 0.5 * math.sqrt(best.mask_area):
-                return False
+                if f.mixed or not f.compact or attempt > 0 or not f.areas:
+                    return False
+                # nothing of the object's polarity where it should be: it may have
+                # moved in front of a background of its own brightness, where only its
+                # parts of the other polarity show. Looked for with both polarities,
+                # and measured by its silhouette from here on when found at its size
+                reg2 = seg.segment(frame, roi, gain=gain, polarity=0)
+                cand = [o for o in reg2.components(min_area, shape)
+                        if np.hypot(o.u - p[0], o.v - p[1]) <= gate + 0.5 * math.sqrt(o.mask_area)
+                        and 0.33 <= o.mask_area / max(f.ref(f.areas, 1.0), 1.0) <= 3.0]
+                if not cand:
+                    return False
+                f.become_mixed()
+                reg, blobs = reg2, reg2.components(min_area, shape)
+                best = min(cand, key=lambda o: np.hypot(o.u - p[0], o.v - p[1]))
+                best = next(o for o in blobs if o.label == best.label)
             chosen = best
             if best.touches_roi and attempt == 0:
                 hs *= 2
@@ -581,7 +898,19 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         b = chosen
         group = [b.label]
         mask_area = b.mask_area
-        if len(f.lengths) >= 3:
+        if f.compact and len(f.lengths) >= 3:
+            # an object of any shape may show as several pieces (parts of it match
+            # the background): all pieces within its footprint round the prediction
+            reach = 0.6 * ref_len + 2.0 + 2.0 * err
+            x0r, y0r = reg.roi[0], reg.roi[1]
+            for k in range(1, reg.n):
+                if k == b.label:
+                    continue
+                cu_k, cv_k = reg.centroids[k]
+                if np.hypot(x0r + cu_k - p[0], y0r + cv_k - p[1]) <= reach:
+                    group.append(k)
+                    mask_area += int(reg.stats[k][4])
+        elif len(f.lengths) >= 3:
             # parts of the straw split where it cannot be seen against the background:
             # small pieces within its reach (a whole second straw is not a piece)
             reach = 0.5 * ref_len + ref_w + 2.0
@@ -596,14 +925,57 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                         and a_k < 0.5 * ref_a and mask_area + a_k <= 1.3 * ref_a):
                     group.append(k)
                     mask_area += a_k
-        lv = level if level is not None else read_level(reg, b)
         fl = 0
         known = len(f.lengths) >= 3
-        work = reg.work(group, lv, margin=work_margin(ref_w, ref_len if known else None,
-                                                      b.bbox))
-        if other_behind(work, lv, width=ref_w, min_area=min_area):
-            fl |= MERGED
-        measure(work, b, lv, width=ref_w if known else None, length=ref_len if known else None)
+        if f.mixed:
+            # an object of both polarities: its silhouette (the other polarity is its
+            # own, not something behind it)
+            work = reg.work(group, np.nan, margin=work_margin(None, None, b.bbox))
+            measure_silhouette(work, b)
+        elif not f.compact:
+            lv = level if level is not None else read_level(reg, b)
+            work = reg.work(group, lv, margin=work_margin(ref_w, ref_len if known else None,
+                                                          b.bbox))
+            # (a rod of one grey level is seen by its coverage against any background,
+            # and what touches it in the other polarity is behind it: a blade)
+            if other_behind(work, lv, width=ref_w, min_area=min_area):
+                fl |= MERGED
+            measure(work, b, lv, width=ref_w if known else None,
+                    length=ref_len if known else None)
+        else:
+            lv = level if level is not None else read_level(reg, b)
+            work = reg.work(group, lv, margin=work_margin(None, None, b.bbox))
+            trim = f.trims() and known
+            if not trim and _opposite_touching(work, min_area):
+                whole = own_other_half(frame, roi, gain, b, f) if known else None
+                if whole is not None:
+                    # the object's other half shows against a background of its own
+                    # brightness: it is measured whole, by its silhouette, from here on
+                    f.become_mixed()
+                    reg, b = whole
+                    blobs = reg.components(min_area, shape)
+                    group = [b.label]
+                    mask_area = b.mask_area
+                    work = reg.work(group, np.nan, margin=work_margin(None, None, b.bbox))
+                elif not _shadow_beside(work):
+                    fl |= MERGED
+            if not f.mixed:
+                # an object of one grey level: what is attached beyond its fully
+                # covered core and the edge round it is not of it (a shadow); what
+                # touches it changes nothing unless it hides part of the core
+                n_core, n_drop, uni = trim_attached(
+                    work, reach_px=2.0 if trim else None, along=np.asarray(vel))
+                b.core = n_core
+                b.uniform = uni
+                if trim and f.cores and abs(n_core - f.ref(f.cores, n_core)) > \
+                        0.3 * f.ref(f.cores, n_core):
+                    fl |= APPEARANCE
+                if trim:
+                    measure_solid(work, b)
+                else:
+                    measure_silhouette(work, b)
+            else:
+                measure_silhouette(work, b)
         if not b.area > 0:
             return False
         b.mask_area = mask_area
@@ -620,19 +992,50 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         # the straw's; one of the other polarity was taken as background above
         same = False
         ref_area = f.ref(f.areas, None)
-        if ref_area is not None and len(f.areas) >= 3 and (
+        same_shape = True
+        if f.compact:
+            grown = ref_area is not None and len(f.areas) >= 3 and (
+                b.mask_area > 1.5 * ref_area
+                or b.length > 1.3 * f.ref(f.lengths, np.inf))
+        else:
+            grown = ref_area is not None and len(f.areas) >= 3 and (
                 b.mask_area > 1.6 * ref_area or b.mask_area > 1.4 * f.areas[-1]
-                or b.length - f.lengths[-1] > 0.3 * max(f.lengths)):
+                or b.length - f.lengths[-1] > 0.3 * max(f.lengths))
+            # a rod's coverage fills the rectangle its moments describe (area = length
+            # x width); another rod attached across it (crossing, riding along) leaves
+            # much of that rectangle empty: a shape the straw's clean frames never had
+            fill = _rod_fill(b)
+            if fill is not None and len(f.fills) >= 3 and fill < 0.8 * f.ref(f.fills, fill):
+                same_shape = False
+            else:
+                same_shape = True
+            # and whatever the clean frames looked like, a rod has no coverage beyond
+            # its band away from its ends: arms of another rod across it do
+            if b.off_axis > OFF_AXIS_MAX:
+                same_shape = False
+        if grown:
             # grown since the last clean frame: a merge, unless it grew smoothly (the
             # straw turning out of an end-on view; the reference would otherwise stay
             # at the small size and flag the rest of the flight)
             same = not f.smooth_growth(b)
+        # only the shape broken by something small attached (a thin rod riding along):
+        # flagged, but its centroid is within a few pixels, so the prediction follows it
+        # through a long ride (through a crossing with an object of its own size it
+        # is predicted from its own clean motion alone)
+        slight = not f.compact and not same_shape and not same
+        if not f.compact and not same_shape:
+            same = True
         x0, y0, x1, y1 = b.bbox
         others = [o for o in blobs if o.label not in group]
+        # (an object of any shape: specks of noise or of itself round it are not
+        # another object)
+        least = max(3 * min_area, 0.1 * ref_area) if f.compact and ref_area else 0
         for o in others:
             ox0, oy0, ox1, oy1 = o.bbox
-            if ox0 <= x1 + 1 and x0 <= ox1 + 1 and oy0 <= y1 + 1 and y0 <= oy1 + 1:
+            if (o.mask_area >= least and ox0 <= x1 + 1 and x0 <= ox1 + 1
+                    and oy0 <= y1 + 1 and y0 <= oy1 + 1):
                 same = True
+                slight = False
                 break
         for o in others:
             if not np.isfinite(o.length):
@@ -640,18 +1043,117 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         f.intruders.update(tau[i], others, min_area=0.4 * (ref_area or 0.0))
         if f.intruders.near(tau[i], p[0], p[1], ref_len):
             same = True
-        fl = store(i, b, fl | (MERGED if same else 0))
-        if same or (fl & BORDER):
+            slight = False
+        # shrunk at a stroke: part of it hidden (behind something, or against a
+        # background it cannot be told from); shrinking smoothly, it is receding or
+        # turning (the reference follows)
+        ref_cov = f.ref(f.covs, None)
+        odd = (not same and ref_cov is not None and len(f.covs) >= 3
+               and b.area < 0.65 * ref_cov and f.last_cov is not None
+               and b.area < 0.8 * f.last_cov)
+        f.last_cov = b.area
+        fl = store(i, b, fl | (MERGED if same else 0) | (APPEARANCE if odd else 0))
+        solid[i] = f.compact
+        if same or odd or (fl & BORDER):
             f.seen(b)
-        if not same and not (fl & BORDER):
+        if slight and not odd and not (fl & BORDER):
+            f.pred.add(tau[i], b.u, b.v)
+        if f.compact and grown and not odd and not (fl & BORDER) and f.regrown(b):
+            # an object of any shape that kept a new size for several frames, nothing
+            # else touching it: it is that size now (a plush toy turning its large
+            # side, a glider turning broadside); its sizes are learnt again
+            f.relearn()
+            same = False
+        if not same and not odd and not (fl & BORDER):
             f.errors.append(float(np.hypot(b.u - p[0], b.v - p[1])))
             f.pred.add(tau[i], b.u, b.v)
             f.add(b)
-            if i % 4 == 0 or len(f.levels) < 3:
+            if not f.mixed and (i % 4 == 0 or len(f.levels) < 3):
                 lv = read_level(reg, b)   # the level drifts slowly: every 4th frame
                 if np.isfinite(lv):
                     f.levels.append(lv)
         return True
+
+    def own_other_half(frame, roi, gain, b, f):
+        """(region, blob) of the whole when what touches the object (``b``) in the other
+        polarity is its own other half, else None.
+
+        Its own when the whole (both polarities) keeps the object's size (mask area 0.6
+        to 1.6 times its clean frames'), the other polarity's part is no larger than the
+        object's clean size, and its edges are as sharp (a shadow's are blurred). A
+        straw riding a blade, or crossing one, is dwarfed by the union.
+        """
+        ref_a = f.ref(f.areas, None)
+        if not ref_a:
+            return None
+        reg0 = seg.segment(frame, roi, gain=gain, polarity=0)
+        whole = None
+        for o in reg0.components(min_area, shape):
+            x0, y0, x1, y1 = o.bbox
+            if x0 <= b.u <= x1 and y0 <= b.v <= y1 and (whole is None
+                                                         or o.mask_area > whole.mask_area):
+                whole = o
+        if (whole is None or whole.touches_roi
+                or not 0.6 * ref_a <= whole.mask_area <= 1.6 * ref_a):
+            return None
+        work = reg0.work([whole.label], np.nan, margin=work_margin(None, None, whole.bbox))
+        sel = work.sel.view(bool)
+        side = np.sign(f.level - float(np.median(work.b[sel]))) if f.level is not None else 1.0
+        opp = sel & (work.d * side < 0)
+        own = sel & (work.d * side > 0)
+        if np.count_nonzero(opp) > 1.0 * ref_a or np.count_nonzero(own) < min_area:
+            return None
+        _, w_opp = edge_stats(work, opp)
+        _, w_own = edge_stats(work, own)
+        if np.isfinite(w_opp) and np.isfinite(w_own) and w_opp >= 1.6 * w_own:
+            return None
+        return reg0, whole
+
+    def follow_back(t_idx, back, ahead, *, until_touch=False):
+        """Follow the object from the target frame backwards to the first frame (with
+        ``until_touch``, only until it first touches something: the hand or the
+        machine that released it)."""
+        good = np.flatnonzero(clean[t_idx:]) + t_idx
+        if good.size < 3:
+            return
+        f = _Follow()
+        f.mixed = ahead.mixed
+        f.compact = ahead.compact
+        f.start = 0
+        for k in good[:16]:
+            f.pred.add(tau[k], u[k], v[k])
+        levels, areas, lengths, widths = ahead.snapshot or (
+            list(ahead.levels), list(ahead.areas), list(ahead.lengths), list(ahead.widths))
+        f.levels.extend(levels)
+        f.areas.extend(areas)
+        f.lengths.extend(lengths)
+        f.widths.extend(widths)
+        if areas and lengths:
+            f.last_size = (areas[0], lengths[0])
+        held = {i: fr for i, fr in back}
+        oldest = min(held) if held else t_idx
+        chunk = max(1, _BACK_BYTES // max(1, int(np.prod(shape))
+                                          * np.dtype(source.dtype).itemsize))
+        i = t_idx - 1
+        while i >= 0:
+            if i not in held:
+                lo = max(0, min(i, oldest) - chunk + 1)
+                held = {j: source[j] for j in range(lo, i + 1)}
+                oldest = lo
+            frame = held.pop(i)
+            if follow(i, frame, f):
+                f.gap = 0
+                if until_touch and flags[i] != 0:
+                    # touching what released it: that frame is not the object's
+                    u[i] = v[i] = area[i] = angle[i] = length[i] = np.nan
+                    flags[i] = LOST
+                    clean[i] = solid[i] = False
+                    break
+            else:
+                f.gap += 1
+                if f.gap > max_gap:
+                    break
+            i -= 1
 
     def stream():
         while buffer:
@@ -664,9 +1166,23 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 raise Cancelled(f"tracking of {_name(view, source)} cancelled")
             yield item
 
+    t_idx = None if target is None else _target_index(target, fnums, name)
+    back = deque()           # frames before the target frame, newest last
+    back_bytes = 0
+    pinned = None            # the target's tracklet until it has 3 points
+    first_fol = None         # the follower's state when the object was first taken
+    ambiguous_run = 0
     for i, frame in enumerate(progress(stream() if cancel is None else checked(stream()),
                                        total=n, desc=f"track {view or ''}".strip(),
                                        quiet=quiet, unit="frame")):
+        if t_idx is not None and i < t_idx:
+            # the target is named in a later frame: these frames are followed
+            # backwards from it afterwards (the newest of them kept)
+            back.append((i, frame))
+            back_bytes += frame.nbytes
+            while back_bytes > _BACK_BYTES and len(back) > 1:
+                back_bytes -= back.popleft()[1].nbytes
+            continue
         if fol is not None:
             if follow(i, frame, fol):
                 fol.gap = 0
@@ -674,7 +1190,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             fol.gap += 1
             if fol.gap <= max_gap:
                 continue
-            if not clean[fol.start:i].any():
+            if not clean[fol.start:i].any() and t_idx is None:
                 # never once seen clear of other objects (e.g. a rotor tooth, followed
                 # while it swept past): not the straw. Its frames are dropped and the
                 # straw is looked for anywhere again, at either polarity
@@ -692,10 +1208,44 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         blobs = search_blobs(i, frame, gain, level)
         if blobs:
             moving_frames += 1
+        if i == t_idx:
+            pinned = Tracklet(tau[i], _target_blob(blobs, target, name, fnums[i]))
+            acq.tracklets = [pinned]
+            continue
+        if pinned is not None:
+            # the named object: followed by association until its motion is known
+            acq.tracklets = [pinned]
+            acq._associate(tau[i], blobs)
+            if len(pinned.points) >= 3:
+                fol = first_fol = start_following(pinned)
+                pinned = None
+                acq.reset()
+            elif tau[i] - pinned.last_t > max_gap:
+                fu, fv = target[1]
+                raise TrackError(
+                    f"{name}: the object at ({fu:g}, {fv:g}) in frame {target[0]} (the "
+                    "target) could not be followed to the next frames")
+            continue
         tr = acq.update(tau[i], blobs, accept=consistent_with_lost)
+        if tr is None and acq.ambiguous and lost_state is None and t_idx is None:
+            ambiguous_run += 1
+            if ambiguous_run >= 3:
+                raise TrackError(_ambiguity_message(name, view, acq.ambiguous, fnums[0]))
+        else:
+            ambiguous_run = 0
         if tr is not None:
             fol = start_following(tr)
+            if first_fol is None:
+                first_fol = fol
             acq.reset()
+
+    if t_idx is not None and t_idx > 0 and first_fol is not None:
+        follow_back(t_idx, back, first_fol)
+        back.clear()
+    elif t_idx is None and first_fol is not None and first_fol.compact and first_fol.start > 0:
+        # an object of any shape is taken once it has flown a while: its first frames
+        # (from the release) are followed backwards from there, read again
+        follow_back(first_fol.start, back, first_fol, until_touch=True)
 
     if not clean.any() and not np.isfinite(u).any():
         if moving_frames == 0:
@@ -708,6 +1258,10 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             f"blobs were seen in {moving_frames} frames, but none moved steadily over 3 "
             "consecutive frames")
 
+    # an object of any shape: a clean frame whose size is far from that of the clean
+    # frames round it was measured with something attached, or partly hidden, before
+    # the object's appearance was known (its first frames, a shadow touching it)
+    _refine.flag_odd_sizes(area, flags, solid & (flags == 0), odd_flag=APPEARANCE)
     pos = np.column_stack([u, v])
     scatter = _refine.flag_outliers(tau, pos, flags, clean_mask=flags == 0,
                                     outlier_flag=OUTLIER)
@@ -718,7 +1272,8 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         seen = np.flatnonzero(np.isfinite(u))
         first_in_open = seen.size > 0 and not flags[seen[0]] & (BORDER | MERGED | BLADE)
         rel, rel_tau, rel_note = _refine.find_release(
-            tau, pos, _release_evidence(u, flags), first_in_open=bool(first_in_open))
+            tau, pos, _release_evidence(u, flags), first_in_open=bool(first_in_open),
+            attached=(flags & (MERGED | BLADE)) > 0)
     if rel is not None:
         before = (np.arange(n) < rel) & np.isfinite(u)
         flags[before] |= PRE_RELEASE

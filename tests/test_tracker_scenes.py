@@ -1,0 +1,238 @@
+"""The tracker on scenes that fool a tracker made for straws, rendered here with exact
+coverage (``rod_render``) and a truth the tracker never sees: an object with its shadow,
+a second object riding along and crossing, a dark ball with a highlight, a person moving
+at the side, two objects flying alike (the tracker must ask), an object named by a
+``target`` (followed both ways in time). Every unflagged frame must be within 0.5 px of
+the truth: a frame the tracker cannot measure must be flagged, not guessed."""
+
+import cv2
+import numpy as np
+import pytest
+from rod_render import (compose, disc_coverage, ellipse_coverage, rod_coverage,
+                        shadow_factor, texture)
+
+from vidtrack.errors import TrackError
+from vidtrack.footage import open_source
+from vidtrack.track.tracker import MERGED, track
+
+SHAPE = (180, 240)
+
+
+def _write_avi(path, frames, fps=30.0):
+    h, w = frames[0].shape
+    vw = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), fps, (w, h), False)
+    assert vw.isOpened()
+    for f in frames:
+        vw.write(f)
+    vw.release()
+    return path
+
+
+def _ballistic(n, start, vel, g=0.06):
+    """(n, 2) pixel path: constant velocity in u, gravity in v (px/frame^2)."""
+    t = np.arange(n, dtype=float)
+    return np.column_stack([start[0] + vel[0] * t, start[1] + vel[1] * t + 0.5 * g * t * t])
+
+
+def _track(tmp_path, frames, fps=500.0, name="scene.avi", **kw):
+    path = _write_avi(tmp_path / name, frames)
+    with open_source(path, fps=fps) as src:
+        return track(src, view="front", **kw)
+
+
+def _errors(tr, truth):
+    d = tr.data
+    return np.hypot(d["u_px"].to_numpy() - truth[:, 0], d["v_px"].to_numpy() - truth[:, 1])
+
+
+def _check(tr, truth, *, min_usable, where=None):
+    """Unflagged frames within 0.5 px of the truth, and enough of them."""
+    ok = tr.usable if where is None else tr.usable & where
+    err = _errors(tr, truth)
+    assert ok.sum() >= min_usable, (int(ok.sum()), tr.flag_counts())
+    assert np.all(err[tr.usable] <= 0.5), np.round(err[tr.usable].max(), 3)
+    return err
+
+
+# --------------------------------------------------------------------- a shadow
+@pytest.mark.parametrize("ball_level", [225.0, 60.0])
+def test_a_shadow_is_never_part_of_the_ball(tmp_path, ball_level):
+    """A ball before a light wall and its shadow, a blurred darker copy a few pixels
+    below and to the right that touches it and falls behind it (a launcher's lamp
+    above the camera). Bright ball: the shadow is of the other polarity. Dark ball:
+    of the same polarity, lighter than the ball and blurred."""
+    rng = np.random.default_rng(1)
+    n = 70
+    wall = texture(SHAPE, rng=rng, mean=185.0, contrast=12.0, scale=6.0)
+    path = _ballistic(n, (30.0, 130.0), (2.6, -2.4), g=0.06)
+    frames = []
+    for i, (u, v) in enumerate(path):
+        off = 5.0 + 0.06 * i                      # the shadow falls behind: 5 to 9 px
+        shade = shadow_factor(disc_coverage(SHAPE, u + off, v + 0.6 * off, 6.0),
+                              darkness=0.45, blur_px=1.8)
+        frames.append(compose(wall * shade, disc_coverage(SHAPE, u, v, 6.0), ball_level,
+                              rng=rng, noise=1.5))
+    tr = _track(tmp_path, frames)
+    _check(tr, path, min_usable=0.6 * n)
+
+
+# --------------------------------------------------------------------- a rider
+@pytest.mark.parametrize("start_apart", [True, False])
+def test_a_second_rod_riding_along_and_crossing_is_never_measured_with_the_straw(
+        tmp_path, start_apart):
+    """A thinner, dimmer rod flies with the straw at the same speed and drifts across
+    it (a rendered run once gave 99 % unflagged frames at 5.3 px RMS: the two measured
+    as one). Apart at first, or touching it from the first frame on."""
+    rng = np.random.default_rng(2)
+    n = 80
+    bg = texture(SHAPE, rng=rng, contrast=30.0)
+    path = _ballistic(n, (40.0, 120.0), (1.8, -1.2), g=0.02)
+    frames = []
+    for i, (u, v) in enumerate(path):
+        ang = 0.4 + 0.004 * i
+        cov = rod_coverage(SHAPE, u, v, 30.0, 3.0, ang)
+        # the rider: 1.5 px thick, level 170, crossing the straw at 40 degrees,
+        # drifting across it (perpendicular offset from -14 to +14 px, or from 0)
+        side = (-14.0 + 0.36 * i) if start_apart else (0.0 + 0.18 * i)
+        nu, nv = -np.sin(ang), np.cos(ang)
+        rider = rod_coverage(SHAPE, u + side * nu, v + side * nv, 24.0, 1.5, ang + 0.7)
+        img = compose(bg, rider, 170.0)
+        frames.append(compose(img.astype(float), cov, 225.0, rng=rng, noise=1.5))
+    tr = _track(tmp_path, frames)
+    err = _check(tr, path, min_usable=5)
+    # where the two touch the frame is flagged (or measured right)
+    flags = tr.data["flags"].to_numpy()
+    assert np.all((flags != 0) | (err <= 0.5))
+    if start_apart:
+        assert np.count_nonzero(flags & MERGED) >= 5
+
+
+# --------------------------------------------------------------------- a highlight
+def test_a_dark_ball_with_a_highlight_is_one_object(tmp_path):
+    """A dark steel ball on a dark, textured background with a bright specular
+    highlight: one object of both polarities (once: nothing found for 160 frames, then
+    every frame merged), measured by its silhouette."""
+    rng = np.random.default_rng(3)
+    n = 70
+    bg = texture(SHAPE, rng=rng, mean=70.0, contrast=12.0)
+    path = _ballistic(n, (40.0, 30.0), (2.2, 0.4), g=0.05)
+    yy, xx = np.mgrid[0:SHAPE[0], 0:SHAPE[1]]
+    frames = []
+    for u, v in path:
+        img = compose(bg, disc_coverage(SHAPE, u, v, 9.0), 25.0).astype(float)
+        hi = 220.0 * np.exp(-((xx - u + 3.0) ** 2 + (yy - v + 3.0) ** 2) / (2 * 1.3 ** 2))
+        frames.append(np.clip(np.rint(img + hi + rng.normal(0, 1.5, SHAPE)), 0, 255)
+                      .astype(np.uint8))
+    tr = _track(tmp_path, frames)
+    _check(tr, path, min_usable=0.8 * n)
+
+
+# --------------------------------------------------------------------- a person
+def test_a_person_moving_at_the_side_is_never_followed(tmp_path):
+    """A person-sized blob sways and swings an arm at the side while a small ball
+    flies across: the ball is tracked, never the person."""
+    rng = np.random.default_rng(4)
+    n = 80
+    bg = texture(SHAPE, rng=rng, mean=120.0, contrast=25.0)
+    path = _ballistic(n, (60.0, 140.0), (2.0, -2.6), g=0.06)
+    frames = []
+    for i, (u, v) in enumerate(path):
+        body = ellipse_coverage(SHAPE, 22.0 + 4.0 * np.sin(i / 9.0), 100.0, 45.0, 16.0,
+                                np.pi / 2 + 0.1 * np.sin(i / 7.0))
+        arm = rod_coverage(SHAPE, 40.0 + 8.0 * np.sin(i / 5.0), 90.0 + 10.0 * np.cos(i / 5.0),
+                           34.0, 7.0, 0.8 * np.sin(i / 5.0))
+        person = np.clip(body + arm, 0.0, 1.0)
+        img = compose(bg, person, 45.0).astype(float)
+        frames.append(compose(img, disc_coverage(SHAPE, u, v, 4.0), 235.0, rng=rng, noise=1.5))
+    tr = _track(tmp_path, frames)
+    err = _check(tr, path, min_usable=0.7 * n)
+    measured = np.isfinite(tr.data["u_px"].to_numpy())
+    assert np.all(err[measured] < 6.0)          # never on the person (40+ px away)
+
+
+# --------------------------------------------------------------------- which one
+def _two_balls(rng, n=60):
+    bg = texture(SHAPE, rng=rng, mean=100.0, contrast=20.0)
+    a = _ballistic(n, (30.0, 60.0), (2.0, -0.5), g=0.05)
+    b = _ballistic(n, (30.0, 140.0), (2.1, -1.4), g=0.05)
+    frames = []
+    for (ua, va), (ub, vb) in zip(a, b):
+        cov = np.clip(disc_coverage(SHAPE, ua, va, 5.0) + disc_coverage(SHAPE, ub, vb, 5.0),
+                      0.0, 1.0)
+        frames.append(compose(bg, cov, 230.0, rng=rng, noise=1.5))
+    return frames, a, b
+
+
+def test_two_objects_flying_alike_are_not_picked_but_named(tmp_path):
+    frames, a, b = _two_balls(np.random.default_rng(5))
+    with pytest.raises(TrackError) as err:
+        _track(tmp_path, frames)
+    msg = str(err.value)
+    assert "\n" not in msg and "view front" in msg
+    assert "target = { frame = " in msg and "at_px = [" in msg
+
+
+def test_a_target_names_the_object_and_it_is_followed_both_ways(tmp_path):
+    frames, a, b = _two_balls(np.random.default_rng(5))
+    f = 30
+    tr = _track(tmp_path, frames, target=(f, (b[f, 0] + 2.0, b[f, 1] - 1.0)))
+    err = _check(tr, b, min_usable=0.8 * len(b))
+    ok = tr.usable
+    assert ok[:f].sum() >= 0.8 * f                # before the target's frame too
+    assert np.all(err[np.isfinite(err)] < 1.0)   # never the other ball
+
+
+def test_a_target_where_nothing_moves_is_refused(tmp_path):
+    frames, a, b = _two_balls(np.random.default_rng(5))
+    with pytest.raises(TrackError, match="nothing moves at the target"):
+        _track(tmp_path, frames, target=(30, (200.0, 20.0)))
+    with pytest.raises(TrackError, match="not in the footage"):
+        _track(tmp_path, frames, target=(500, (20.0, 20.0)))
+
+
+# --------------------------------------------------------------------- scene.toml
+_SCENE = """schema = 1
+[views.front]
+source = "front.avi"
+fps = 240
+axes = ["+x", "-y"]
+origin_px = [458.0, 500.0]
+m_per_px = 0.0021765
+{extra}
+"""
+
+
+@pytest.mark.parametrize("extra, key, words", [
+    ("target = 5", "views.front.target", "must be a table { frame = F, at_px = [u, v] }"),
+    ("target = { frame = 3 }", "views.front.target.at_px", "is required"),
+    ("target = { at_px = [1, 2] }", "views.front.target.frame", "is required"),
+    ("target = { frame = -1, at_px = [1, 2] }", "views.front.target.frame", "must be >= 0"),
+    ("target = { frame = 1.5, at_px = [1, 2] }", "views.front.target.frame",
+     "must be a frame index"),
+    ("target = { frame = 1, at_px = [1] }", "views.front.target.at_px", "must be two numbers"),
+    ("target = { frame = 1, at_px = [1, 2], px = 3 }", "views.front.target.px",
+     "is not a known key"),
+    ("frames = [0, 50]\ntarget = { frame = 60, at_px = [1, 2] }", "views.front.target.frame",
+     "must be inside frames [0, 50)"),
+])
+def test_scene_target_key_is_checked_with_one_line(tmp_path, extra, key, words):
+    from vidtrack.errors import SceneError
+    from vidtrack.scene import load_scene
+
+    (tmp_path / "scene.toml").write_text(_SCENE.format(extra=extra))
+    with pytest.raises(SceneError) as err:
+        load_scene(tmp_path)
+    msg = str(err.value)
+    assert "\n" not in msg and f"{key} " in msg and words in msg
+
+
+def test_scene_target_key_reads_and_writes_back(tmp_path):
+    from vidtrack.scene import load_scene, write_scene
+
+    (tmp_path / "scene.toml").write_text(
+        _SCENE.format(extra="target = { frame = 200, at_px = [878.0, 320.0] }"))
+    scene = load_scene(tmp_path)
+    assert scene.views["front"].target == (200, (878.0, 320.0))
+    write_scene(tmp_path / "copy", scene.to_dict())
+    again = load_scene(tmp_path / "copy")
+    assert again.views["front"].target == (200, (878.0, 320.0))
