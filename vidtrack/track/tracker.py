@@ -409,6 +409,19 @@ def _release_evidence(u, flags, *, clear_run=10):
     return ok
 
 
+def _flew_clear(u, v, area, clean, start, stop):
+    """The object followed over frames ``start:stop`` was seen flying clear of other
+    objects: its clean frames span (their bounding box's diagonal) at least twice its
+    size (the square root of their median area, at least 4 px), as
+    :meth:`Tracklet.flying` asks of a candidate."""
+    ok = np.flatnonzero(clean[start:stop]) + start
+    if ok.size < 2:
+        return False
+    size = max(float(np.sqrt(np.median(area[ok]))), 4.0)
+    reach = float(np.hypot(np.ptp(u[ok]), np.ptp(v[ok])))
+    return reach >= 2.0 * size
+
+
 def _rod_fill(blob):
     """Coverage area over ``length x width`` of the coverage's moments (1 for a
     rectangle, less for a blurred thin rod, much less for two rods across each other);
@@ -492,8 +505,15 @@ def _target_blob(blobs, target, name, frame):
     inside = [b for b in blobs if contains(b)]
     if inside:
         # the whole object (both polarities) before a part, the largest part before a
-        # highlight or an opening inside it
-        return min(inside, key=lambda b: (b.polarity != 0, -b.mask_area))
+        # highlight or an opening inside it; but a whole that is one part and a speck
+        # of the other polarity (compression noise at its edge) is that part
+        best = min(inside, key=lambda b: (b.polarity != 0, -b.mask_area))
+        parts = [b for b in inside if b.polarity != 0]
+        if best.polarity == 0 and parts:
+            part = max(parts, key=lambda b: b.mask_area)
+            if part.mask_area >= 0.8 * best.mask_area:
+                return part
+        return best
     near = [(float(np.hypot(b.u - tu, b.v - tv)), b) for b in blobs]
     near = [(d, b) for d, b in near if d <= max(10.0, 2.0 * np.sqrt(b.mask_area))]
     if near:
@@ -1128,6 +1148,8 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         f.areas.extend(areas)
         f.lengths.extend(lengths)
         f.widths.extend(widths)
+        # (a rod's shape: something riding along it leaves its rectangle part empty)
+        f.fills.extend(ahead.fills)
         if areas and lengths:
             f.last_size = (areas[0], lengths[0])
         held = {i: fr for i, fr in back}
@@ -1190,13 +1212,15 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             fol.gap += 1
             if fol.gap <= max_gap:
                 continue
-            if not clean[fol.start:i].any() and t_idx is None:
-                # never once seen clear of other objects (e.g. a rotor tooth, followed
-                # while it swept past): not the straw. Its frames are dropped and the
-                # straw is looked for anywhere again, at either polarity
+            if t_idx is None and not _flew_clear(u, v, area, clean, fol.start, i):
+                # never once seen flying clear of other objects (a rotor tooth
+                # followed while it swept past, a machine part that moved its own size
+                # and back): not the straw. Its frames are dropped and the straw is
+                # looked for anywhere again, at either polarity
                 drop = np.arange(fol.start, i)
                 u[drop] = v[drop] = area[drop] = angle[drop] = length[drop] = np.nan
                 flags[drop] = LOST
+                clean[drop] = solid[drop] = False
             else:
                 lost_state = (fol.pred, tau[i])
                 if fol.level is not None:
