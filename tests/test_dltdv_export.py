@@ -54,3 +54,30 @@ def test_tracked_pixels_are_flipped_for_a_bottom_left_camera(tmp_path):
     xy = pd.read_csv(tmp_path / "xypts.csv")
     assert xy["pt1_cam1_Y"].tolist() == pytest.approx([380.0, 390.0])
     assert pd.read_csv(tmp_path / "xyzpts.csv").iloc[0].tolist() == [1.0, 2.0, 3.0]
+
+
+def test_fit_writes_the_dltdv_files_beside_the_tracks(tmp_path, vidtrack_cli):
+    """`vidtrack fit` on the bundled run writes xypts.csv with tracks.csv's unflagged
+    pixels (read back by the DLTdv reader), and writes a deleted one again on reuse."""
+    import shutil
+    from pathlib import Path
+
+    run = tmp_path / "run42"
+    shutil.copytree(Path(__file__).resolve().parents[1] / "datasets" / "run42", run,
+                    ignore=shutil.ignore_patterns("vidtrack"))
+    r = vidtrack_cli("fit", run, "--no-report")
+    assert r.returncode == 0, r.stderr
+    out = run / "vidtrack"
+    assert (out / "xypts_cameras.txt").read_text() == "cam1 = front\ncam2 = top\n"
+    tracks = pd.read_csv(out / "tracks.csv")
+    for c, view in enumerate(("front", "top"), start=1):
+        t = tracks[(tracks["view"] == view) & (tracks["flags"] == 0)]
+        back = read_points(out / "xypts.csv", fps=1200, camera=c)
+        d = back.data.set_index("frame").loc[t["frame"]]
+        np.testing.assert_allclose(d["u_px"].to_numpy(), t["u_px"].to_numpy(), rtol=1e-12)
+        np.testing.assert_allclose(d["v_px"].to_numpy(), t["v_px"].to_numpy(), rtol=1e-12)
+        assert int(back.usable.sum()) == len(t)
+    (out / "xypts.csv").unlink()
+    r = vidtrack_cli("fit", run, "--no-report")
+    assert r.returncode == 0 and "xypts.csv is missing; written again" in r.stderr
+    assert (out / "xypts.csv").is_file()

@@ -39,7 +39,8 @@ from vidtrack.run.preflight import OUT_DIR, about, prepare_run  # noqa: F401  OU
 log = logging.getLogger(__name__)
 
 #: What each stage writes (removed before the stage is computed again).
-TRACKS_FILES = ("tracks.h5", "tracks.csv", "world.csv")
+TABLE_FILES = ("tracks.csv", "world.csv", "xypts.csv", "xyzpts.csv", "xypts_cameras.txt")
+TRACKS_FILES = ("tracks.h5",) + TABLE_FILES
 REPORT_FILES = ("report.md", "report.html")
 FIT_FILES = ("fit.json",) + REPORT_FILES
 #: Largest --bootstrap and --jobs (each resample is a full refit; jobs beyond the
@@ -196,7 +197,7 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
             return key, *reused, True, None
     # tracked again: what this stage and the fit wrote before must not outlive a failure
     _remove_outputs(out_dir, stages, ("tracks", "fit"), TRACKS_FILES + FIT_FILES)
-    from vidtrack.run.tracks_file import write_tables, write_tracks
+    from vidtrack.run.tracks_file import write_tracks
 
     if scene.calibrated:     # cameras at any angle: triangulated (vidtrack.run.calibrated)
         from vidtrack.run.calibrated import calibrated_tracks
@@ -221,9 +222,20 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
             helper.send_tracks({n: tr.data for n, tr in tracks.items()})
         calibration = {n: v.to_dict() for n, v in scene.views.items()}
     write_tracks(h5, tracks, world, scene_hash=scene.hash, calibration=calibration)
-    write_tables(out_dir, tracks, world)        # tracks.csv, world.csv: the same numbers
+    _write_tables(scene, out_dir, tracks, world)
     stages.record("tracks", key, TRACKS_FILES)
     return key, tracks, world, False, helper
+
+
+def _write_tables(scene, out_dir, tracks, world):
+    """tracks.csv and world.csv (the numbers of tracks.h5), and the DLTdv-style
+    xypts.csv, xyzpts.csv and xypts_cameras.txt (:mod:`vidtrack.run.dltdv_export`)."""
+    from vidtrack.run.dltdv_export import write_dltdv
+    from vidtrack.run.tracks_file import write_tables
+
+    write_tables(out_dir, tracks, world)
+    cameras = ({n: v.camera for n, v in scene.views.items()} if scene.calibrated else None)
+    write_dltdv(out_dir, tracks, world, cameras=cameras)
 
 
 def _reused_tracks(scene, out_dir, key, stages, timings, label):
@@ -238,7 +250,7 @@ def _reused_tracks(scene, out_dir, key, stages, timings, label):
     again. tracks.csv and world.csv are written again from tracks.h5 unless they are
     the files recorded.
     """
-    from vidtrack.run.tracks_file import read_tracks, write_tables
+    from vidtrack.run.tracks_file import read_tracks
 
     ok, why = stages.check("tracks", key, ("tracks.h5",))
     edited = False
@@ -265,8 +277,7 @@ def _reused_tracks(scene, out_dir, key, stages, timings, label):
         _note(f"{label}: {why}, and reads back whole: using it as edited (--force "
               "tracks again)")
         edited = True
-    tables = ("tracks.csv", "world.csv")
-    stale = [n for n in tables if not stages.file_matches("tracks", n)]
+    stale = [n for n in TABLE_FILES if not stages.file_matches("tracks", n)]
     if edited or stale:
         # tracks.csv and world.csv belong to this stage: written again from the tracks
         # reused when missing, changed, or from before tracks.h5 was edited
@@ -275,7 +286,7 @@ def _reused_tracks(scene, out_dir, key, stages, timings, label):
                 how = "changed since it was written" if (Path(out_dir) / name).exists() \
                     else "is missing"
                 _note(f"{label}: {name} {how}; written again from tracks.h5")
-        write_tables(out_dir, tf.tracks, tf.world)
+        _write_tables(scene, out_dir, tf.tracks, tf.world)
         stages.record("tracks", key, TRACKS_FILES,
                       at=None if edited else stages.at("tracks"))
     timings["tracks_reused"] = time.perf_counter() - t0
