@@ -18,6 +18,8 @@ examples:
   vidtrack synth runs/small --size 320x240 --flight-s 0.2 --format png
   vidtrack synth runs/cross --second-straw --views front --codec ffv1
   vidtrack synth runs/rep --throws 10 --seed 7
+  vidtrack synth runs/hard --shadow 4,0.4,1.5 --rider crossing --person-at-side
+  vidtrack synth runs/dark --straw-polarity dark --highlight 0.95
   vidtrack synth runs/persp --cameras perspective --camera-distance-m 1.5 --camera-angle-deg 70
   vidtrack synth runs/square --cameras square --camera-distance-m 1.5
 """
@@ -172,6 +174,24 @@ def add_arguments(parser):
                    help="time at which the second straw crosses the first, s (0.10)")
     g.add_argument("--second-flight-s", type=float, default=0.35,
                    help="how long the second straw has flown when it crosses, s (0.35)")
+    g = p.add_argument_group("distractors (docs/synth.md, \"Distractors\"; orthographic only)")
+    g.add_argument("--shadow", type=_floats(3, "offset_px,darken,blur_px"), default=None,
+                   metavar="OFFSET_PX,DARKEN,BLUR_PX",
+                   help="the straw's shadow on the background: moved OFFSET_PX down-right, "
+                        "darkening by the fraction DARKEN, blurred by BLUR_PX "
+                        "(default: none), e.g. 4,0.4,1.5")
+    g.add_argument("--rider", choices=("riding", "crossing"), default=None,
+                   help="a thinner, dimmer rod flying with the straw from the release: "
+                        "riding beside it, or crossing it at mid-flight (default: none)")
+    g.add_argument("--straw-polarity", choices=("bright", "dark"), default=None,
+                   help="draw the straw bright or dark against the background (its "
+                        "--straw-grey mirrored about the background if on the other side)")
+    g.add_argument("--highlight", type=float, default=None, metavar="GREY",
+                   help="a specular stripe of grey level GREY along the straw's upper-left "
+                        "side (default: none), e.g. 0.95 on a dark straw")
+    g.add_argument("--person-at-side", action="store_true",
+                   help="a person swaying and swinging an arm at the side of each view, "
+                        "clear of the straw's path")
     g = p.add_argument_group("output")
     g.add_argument("--format", default="avi", choices=("avi", "png", "cine"),
                    help="footage: AVI video (default), png image folders or Phantom .cine")
@@ -215,7 +235,9 @@ def spec_from_args(args):
         sync_in_scene=args.sync_in_scene, cameras=args.cameras,
         camera_distance_m=args.camera_distance_m, camera_angle_deg=args.camera_angle_deg,
         distortion=args.distortion, dlt_views=args.dlt_views,
-        camera_distance_in_scene=not args.no_camera_distance_in_scene)
+        camera_distance_in_scene=not args.no_camera_distance_in_scene,
+        shadow=args.shadow, rider=args.rider, straw_polarity=args.straw_polarity,
+        highlight_grey=args.highlight, person_at_side=args.person_at_side)
 
 
 def run(args):

@@ -280,8 +280,9 @@ def composite_box(base, layers, roi, *, supersample=16, cache=None):
     base : numpy.ndarray
         The pixels of ``roi`` before painting (not modified).
     layers : sequence of (key, shape, grey)
-        ``shape`` a Capsule or Box in pixels, ``grey`` its intensity in [0, 1]. A
-        ``shape`` of None is skipped.
+        ``shape`` a Capsule or Box in pixels, ``grey`` its intensity in [0, 1], or a
+        function of the sub-ROI the shape covers returning its grey levels there (a
+        textured fill). A ``shape`` of None is skipped.
     roi : Roi
     supersample : int, keyword-only
     cache : dict, keyword-only
@@ -313,6 +314,8 @@ def composite_box(base, layers, roi, *, supersample=16, cache=None):
                     cache.clear()
                 cache[key_c] = cov
         sl = sub.slice_in(roi)
+        if callable(grey):                 # a textured fill: its grey levels over sub
+            grey = grey(sub)
         image[sl] += (grey - image[sl]) * cov
         covers[key] = (sub, cov)
     return image, covers

@@ -9,7 +9,10 @@ sample:
   silhouette in any orthographic view is again a capsule, centrally symmetric, so
   the centroid of the silhouette is the projected rod centre), opaque, of grey
   level ``straw_grey``;
-- optionally a second straw, drawn behind the first.
+- optionally a second straw, drawn behind the first;
+- optionally the distractors of :mod:`vidtrack.synth._distractors` (a shadow under
+  everything that moves, a rider behind the straw, a highlight on it, a person at the
+  side).
 
 ``_ViewRenderer`` draws frame i:
 
@@ -29,10 +32,11 @@ import math
 
 import numpy as np
 
-from vidtrack.synth import _raster
+from vidtrack.synth import _distractors, _raster
 from vidtrack.synth._views import (_GREY, _HUB_RADIUS_M, _SHAFT_HALF_LENGTH_M,
                                    _SHAFT_HALF_WIDTH_M, _TOOTH_HALF_BREADTH_M,
                                    _TOOTH_HALF_WIDTH_M, _frame_times)
+
 from vidtrack.synth.motion import _second_pose, straw_pose
 from vidtrack.synth.spec import VIEW_NAMES
 
@@ -70,6 +74,42 @@ class _ViewTrack:
             cs2, ds2 = _second_pose(self.ts.ravel(), spec, throw, state2, t2)
             self.sub2_a = view.to_px(cs2 - half * ds2).reshape(n, kk, 2)
             self.sub2_b = view.to_px(cs2 + half * ds2).reshape(n, kk, 2)
+        self._distractors(spec, view, throw, c, d, cs, ds)
+
+    def _distractors(self, spec, view, throw, c, d, cs, ds):
+        """Poses of the distractors asked for (docs/synth.md, "Distractors")."""
+        n, kk = self.t.size, self.kk
+        self.level = spec.straw_level
+        self.shadow_px = (None if spec.shadow is None
+                          else _distractors.shadow_offset_px(spec))
+        self.rider = spec.rider is not None
+        rider_ends = None
+        if self.rider:
+            rhalf, self.rider_radius_px = _distractors.rider_half_and_radius(
+                spec, view.mapping.m_per_px)
+            cr, dr = _distractors.rider_pose(self.t, spec, throw, c, d)
+            self.rider_centre_m = cr
+            self.rider_centre_px = view.to_px(cr)
+            self.rider_a_px = view.to_px(cr - rhalf * dr)
+            self.rider_b_px = view.to_px(cr + rhalf * dr)
+            crs, drs = _distractors.rider_pose(self.ts.ravel(), spec, throw, cs, ds)
+            self.subr_a = view.to_px(crs - rhalf * drs).reshape(n, kk, 2)
+            self.subr_b = view.to_px(crs + rhalf * drs).reshape(n, kk, 2)
+            rider_ends = (self.subr_a.reshape(-1, 2), self.subr_b.reshape(-1, 2),
+                          self.rider_radius_px)
+        self.person = None
+        if spec.person_at_side:
+            blade_px = ((throw.blade_radius_m + _TOOTH_HALF_WIDTH_M) / view.mapping.m_per_px
+                        if view.name == "front" else
+                        throw.blade_radius_m / view.mapping.m_per_px)
+            self.person = _distractors.place_person(spec, view, self, blade_px, rider_ends)
+
+    def shadow_capsule(self, i, j):
+        """The straw's silhouette moved to where its shadow falls (before the blur)."""
+        du, dv = self.shadow_px
+        a, b = self.sub_a[i, j], self.sub_b[i, j]
+        return _raster.Capsule((a[0] + du, a[1] + dv), (b[0] + du, b[1] + dv),
+                               self.radius_px)
 
     def blade_angles(self, i):
         return self.throw.release_angle_rad + self.throw.blade_rad_s * self.ts[i]
@@ -98,12 +138,21 @@ class _ViewTrack:
                 hub = view.world_box((-_SHAFT_HALF_WIDTH_M, -_SHAFT_HALF_LENGTH_M),
                                      (_SHAFT_HALF_WIDTH_M, _SHAFT_HALF_LENGTH_M))
             out.append(("hub", hub, _GREY["hub"]))
+        if self.person is not None:
+            out.extend(self.person.parts(float(self.ts[i, j])))
         if self.second and np.all(np.isfinite(self.sub2_a[i, j])):
             out.append(("straw2", _raster.Capsule(tuple(self.sub2_a[i, j]),
                                                   tuple(self.sub2_b[i, j]), self.radius_px),
-                        spec.straw_grey))
+                        self.level))
+        if self.rider and np.all(np.isfinite(self.subr_a[i, j])):
+            out.append(("rider", _raster.Capsule(tuple(self.subr_a[i, j]),
+                                                 tuple(self.subr_b[i, j]), self.rider_radius_px),
+                        _distractors.rider_level(spec)))
         out.append(("straw", _raster.Capsule(tuple(self.sub_a[i, j]), tuple(self.sub_b[i, j]),
-                                             self.radius_px), spec.straw_grey))
+                                             self.radius_px), self.level))
+        if spec.highlight_grey is not None:
+            out.append(("highlight", _distractors.highlight_capsule(
+                self.sub_a[i, j], self.sub_b[i, j], self.radius_px), spec.highlight_grey))
         return out
 
     def exposure_geometry(self, i):
@@ -160,17 +209,30 @@ class _ViewRenderer:
                 roi = _raster.shape_roi(s.extent_px()).clip(shape)
                 if not roi.empty:
                     rois[key] = rois[key].union(roi) if key in rois else roi
+        shadows = None
+        if getattr(track, "shadow_px", None) is not None:       # pinhole tracks have none
+            shadows = [track.shadow_capsule(i, j) for j in range(kk)]
+            pad = math.ceil(4.0 * float(spec.shadow[2])) + 2
+            for sh in shadows:
+                u0, u1, v0, v1 = sh.extent_px()
+                roi = _raster.shape_roi((u0 - pad, u1 + pad, v0 - pad, v1 + pad)).clip(shape)
+                if not roi.empty:
+                    rois["shadow"] = rois["shadow"].union(roi) if "shadow" in rois else roi
         groups = _merge_rois(rois)
         image = self.static.copy()
         facts = {"coverage_px": 0.0, "moment_u": 0.0, "moment_v": 0.0, "overlap": False,
-                 "blade_overlap": False}
+                 "blade_overlap": False, "rider_overlap": False, "person_overlap": False}
         for roi, keys in groups:
             base = self.static[roi.slices]
             acc = np.zeros(roi.shape)
             cov = {}
-            for layers in per_sample:
+            for j, layers in enumerate(per_sample):
                 sel = [ly for ly in layers if ly[0] in keys]
-                painted, covers = _raster.composite_box(base, sel, roi,
+                base_j = base
+                if "shadow" in keys:
+                    base_j = base * (1.0 - float(spec.shadow[1])
+                                     * self._shadow(shadows[j], roi))
+                painted, covers = _raster.composite_box(base_j, sel, roi,
                                                         supersample=spec.supersample,
                                                         cache=self._cache)
                 acc += painted
@@ -189,7 +251,23 @@ class _ViewRenderer:
                     facts["overlap"] |= bool(np.any((straw > 0) & (cov["straw2"] > 0)))
                 if "blade" in cov:
                     facts["blade_overlap"] |= bool(np.any((straw > 0) & (cov["blade"] > 0)))
+                if "rider" in cov:
+                    facts["rider_overlap"] |= bool(np.any((straw > 0) & (cov["rider"] > 0)))
+                person = sum(cov[k] for k in cov if k.startswith("person"))
+                if not np.isscalar(person):
+                    facts["person_overlap"] |= bool(np.any((straw > 0) & (person > 0)))
         return image, facts
+
+    def _shadow(self, capsule, roi):
+        """The shadow's blurred coverage over ``roi`` (0 .. 1)."""
+        import cv2
+
+        cov = _raster.capsule_coverage(capsule, roi, supersample=self.spec.supersample)
+        sigma = float(self.spec.shadow[2])
+        if sigma > 0:
+            cov = cv2.GaussianBlur(cov, (0, 0), sigmaX=sigma, sigmaY=sigma,
+                                   borderType=cv2.BORDER_CONSTANT)
+        return cov
 
     def frame(self, i):
         """Frame i as written: noise added, quantised to ``bit_depth``."""

@@ -318,6 +318,10 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
     head = {"schema": TRUTH_SCHEMA, "generator": "vidtrack synth",
             "vidtrack_version": __version__, "run": run_name, "spec": spec.to_dict(),
             "conventions": _CONVENTIONS}
+    if spec.distractors:
+        from vidtrack.synth.truth import DISTRACTOR_CONVENTIONS
+
+        head["conventions"] = {**_CONVENTIONS, **DISTRACTOR_CONVENTIONS}
     if pinhole:
         head["conventions"] = {**_CONVENTIONS, **_cameras.CONVENTIONS}
         if frame is not None:

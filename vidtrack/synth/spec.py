@@ -15,7 +15,7 @@ from vidtrack.errors import VidtrackError
 from vidtrack.scene.model import FPS_RANGE
 
 __all__ = ["SynthSpec", "VIEW_NAMES", "FORMATS", "CODECS", "CAMERA_MODELS",
-           "CAMERA_VIEW_NAMES"]
+           "CAMERA_VIEW_NAMES", "RIDER_MODES", "POLARITIES"]
 
 VIEW_NAMES = ("front", "top")
 #: How the views are imaged: ideal orthographic cameras square to the axes (default),
@@ -29,6 +29,15 @@ CAMERA_VIEW_NAMES = ("cam1", "cam2")
 #: truth.json) for orthographic cameras, which they do not concern.
 CAMERA_FIELDS = ("cameras", "camera_distance_m", "camera_angle_deg", "distortion",
                  "dlt_views", "camera_distance_in_scene")
+#: The distractors real footage taught (docs/synth.md, "Distractors"): off by default and
+#: then left out of ``to_dict`` (and so of truth.json), so that a run without them is
+#: rendered and described byte for byte as before they existed.
+DISTRACTOR_FIELDS = ("shadow", "rider", "straw_polarity", "highlight_grey", "person_at_side")
+#: How the rider (a thinner, dimmer rod flying with the straw) moves: ``riding`` side by
+#: side with the straw, turning with it and sliding along it; ``crossing`` drifting
+#: across it at an angle, centres coinciding at mid-flight.
+RIDER_MODES = ("riding", "crossing")
+POLARITIES = ("bright", "dark")
 #: Most frames rendered per view (and most frames of release and delay): 83 s at
 #: 1200 fps, far beyond any throw; a larger count is a typo that would fill the disk.
 MAX_FRAMES = 100_000
@@ -106,6 +115,19 @@ class SynthSpec:
         [42]; ``run_name`` None = the output folder's name [None]; ``scale_in_scene``
         "ruler" | "m_per_px" ["ruler"]; ``sync_in_scene`` write each view's release
         frame as ``sync_frame`` (else "auto") [False].
+    Distractors (docs/synth.md, "Distractors"; all off by default; orthographic cameras)
+        ``shadow`` (offset_px, darken, blur_px): the straw's shadow on the background,
+        a copy of its silhouette moved offset_px down and to the right (45 degrees,
+        light from the upper left), darkening what it falls on by the fraction darken,
+        blurred by a Gaussian of blur_px [None]; ``rider`` "riding" | "crossing": a
+        rod 0.6 times as long and half as thick as the straw, half its contrast, flying
+        with it from the release, drawn behind it [None]; ``straw_polarity`` "bright" |
+        "dark": the straw's level mirrored about ``background_grey`` when
+        ``straw_grey`` is on the other side (None: as ``straw_grey`` says) [None];
+        ``highlight_grey`` grey level of a specular stripe along the straw's upper-left
+        side, inside its silhouette (None: none) [None]; ``person_at_side`` a person
+        (textured body, head and a swinging arm) swaying in the largest part of each
+        view that the straw's path, the rotor and the ruler leave free [False].
     Pinhole cameras (docs/synth.md, "Perspective cameras")
         ``cameras`` "orthographic" | "perspective" | "square" ["orthographic"]:
         "perspective" renders two pinhole cameras ``cam1``, ``cam2`` at
@@ -183,6 +205,11 @@ class SynthSpec:
     distortion: tuple | None = None
     dlt_views: tuple = ("cam2",)
     camera_distance_in_scene: bool = True
+    shadow: tuple | None = None
+    rider: str | None = None
+    straw_polarity: str | None = None
+    highlight_grey: float | None = None
+    person_at_side: bool = False
 
     def __post_init__(self):
         _validate(self)
@@ -213,13 +240,42 @@ class SynthSpec:
             return tuple(int(v) for v in self.top_size_px)
         return tuple(int(v) for v in self.size_px)
 
+    @property
+    def straw_level(self):
+        """The straw's grey level as drawn: ``straw_grey``, mirrored about
+        ``background_grey`` (and kept within 0.02 .. 0.98) when ``straw_polarity`` asks
+        for the other side of the background."""
+        g, b = float(self.straw_grey), float(self.background_grey)
+        if (self.straw_polarity == "dark" and g > b) or (self.straw_polarity == "bright"
+                                                         and g < b):
+            return min(max(2.0 * b - g, 0.02), 0.98)
+        return g
+
+    @property
+    def distractors(self):
+        """Names of the distractors asked for, in a fixed order."""
+        out = []
+        if self.shadow is not None:
+            out.append("shadow")
+        if self.rider is not None:
+            out.append("rider")
+        if self.straw_polarity is not None:
+            out.append("polarity")
+        if self.highlight_grey is not None:
+            out.append("highlight")
+        if self.person_at_side:
+            out.append("person")
+        return tuple(out)
+
     def view_axes(self, view):
         return tuple(self.front_axes if view == "front" else self.top_axes)
 
     def to_dict(self):
         """Every parameter, JSON-ready (the pinhole cameras' only with such cameras)."""
         return {f.name: _jsonable(getattr(self, f.name)) for f in fields(self)
-                if self.cameras != "orthographic" or f.name not in CAMERA_FIELDS}
+                if (self.cameras != "orthographic" or f.name not in CAMERA_FIELDS)
+                and (f.name not in DISTRACTOR_FIELDS
+                     or getattr(self, f.name) != f.default)}
 
 
 def _jsonable(value):
@@ -377,6 +433,34 @@ def _validate(s):
     if s.run_name is not None and (not isinstance(s.run_name, str) or not s.run_name.strip()):
         _fail(f"run_name must be a non-empty string, got {s.run_name!r}")
     _validate_cameras(s)
+    _validate_distractors(s)
+
+
+def _validate_distractors(s):
+    if s.shadow is not None:
+        sh = _vector("shadow (offset_px, darken, blur_px)", s.shadow, 3)
+        if not (0 < sh[0] <= 50 and 0 < sh[1] < 1 and 0 <= sh[2] <= 20):
+            _fail("shadow must be offset_px in (0, 50], darken in (0, 1) and blur_px in "
+                  f"[0, 20], got {list(s.shadow)}")
+    if s.rider is not None and s.rider not in RIDER_MODES:
+        _fail(f"rider must be one of {', '.join(RIDER_MODES)}, got {s.rider!r}")
+    if s.straw_polarity is not None and s.straw_polarity not in POLARITIES:
+        _fail(f"straw_polarity must be one of {', '.join(POLARITIES)}, got "
+              f"{s.straw_polarity!r}")
+    if s.straw_polarity is not None and abs(s.straw_level - s.background_grey) < 0.05:
+        _fail(f"straw_polarity {s.straw_polarity}: the mirrored level {s.straw_level:.3g} is "
+              f"within 0.05 of background_grey ({s.background_grey}); give a straw_grey "
+              "with more contrast")
+    if s.highlight_grey is not None:
+        _number("highlight_grey", s.highlight_grey, ge=0, le=1)
+        if abs(s.highlight_grey - s.straw_level) < 0.05:
+            _fail(f"highlight_grey ({s.highlight_grey}) must differ from the straw's level "
+                  f"({s.straw_level:.3g}) by at least 0.05, or the highlight is invisible")
+    if not isinstance(s.person_at_side, (bool, np.bool_)):
+        _fail(f"person_at_side must be true or false, got {s.person_at_side!r}")
+    if s.distractors and s.cameras != "orthographic":
+        _fail(f"the distractors ({', '.join(s.distractors)}) are drawn in the orthographic "
+              f"views only; cameras = {s.cameras} cannot have them")
 
 
 #: Accepted camera distances (m) and angles between the cameras (degrees).

@@ -90,6 +90,9 @@ def _view_truth(spec, view, track, renderer, source):
             "u2_px": _json_list(p2[:, 0]), "v2_px": _json_list(p2[:, 1]),
             "in_view2": [bool(v) for v in vis2],
         })
+    extra = _distractor_truth(spec, track, info, t) if spec.distractors else None
+    if extra is not None:
+        table.update(extra[0])
     release = _release_frame_of(t)
     m = view.mapping
     out = {
@@ -118,7 +121,70 @@ def _view_truth(spec, view, track, renderer, source):
                   "rate_rad_s": track.throw.blade_rad_s},
         "per_frame": table,
     }
+    if extra is not None:
+        out["distractors"] = extra[1]
     return out
+
+
+def _distractor_truth(spec, track, info, t):
+    """Per-frame columns and the view's description of the distractors drawn."""
+    from vidtrack.synth import _distractors
+
+    cols, about = {}, {}
+    r = track.radius_px
+    if spec.shadow is not None:
+        du, dv = (float(x) for x in track.shadow_px)
+        cols["shadow_u_px"] = _json_list(track.centre_px[:, 0] + du)
+        cols["shadow_v_px"] = _json_list(track.centre_px[:, 1] + dv)
+        about["shadow"] = {"offset_px": [du, dv], "darken": float(spec.shadow[1]),
+                           "blur_px": float(spec.shadow[2]),
+                           "falls_on": "the static background (wall or ground, housing, "
+                                       "ruler), under everything that moves"}
+    if spec.straw_polarity is not None or spec.highlight_grey is not None:
+        about["straw"] = {"level": track.level,
+                          "polarity": "bright" if track.level > spec.background_grey
+                          else "dark",
+                          "highlight_grey": spec.highlight_grey}
+    if track.rider:
+        a, b, rr = track.rider_a_px, track.rider_b_px, track.rider_radius_px
+        gaps = [_distractors.capsule_gap(track.end_a_px[i], track.end_b_px[i], r, a[i], b[i],
+                                         rr) for i in range(t.size)]
+        cols.update({
+            "rider_u_px": _json_list(track.rider_centre_px[:, 0]),
+            "rider_v_px": _json_list(track.rider_centre_px[:, 1]),
+            "rider_gap_px": _json_list(gaps),
+            "rider_overlap": [bool(f["rider_overlap"]) for f in info],
+        })
+        half, _ = _distractors.rider_half_and_radius(spec, 1.0)
+        about["rider"] = {"mode": spec.rider, "radius_px": rr,
+                          "length_m": 2.0 * half + _distractors._RIDER_DIAMETER
+                          * spec.straw_diameter_m,
+                          "diameter_m": _distractors._RIDER_DIAMETER * spec.straw_diameter_m,
+                          "grey": _distractors.rider_level(spec),
+                          "drawn": "behind the straw, from the release"}
+    if spec.person_at_side:
+        p = track.person
+        if p is None:
+            about["person"] = {"drawn": False,
+                               "reason": "no free rectangle of 24 px on a side beside the "
+                                         "straw's path, the rotor and the ruler"}
+        else:
+            pu, pv, gap = [], [], []
+            for i in range(t.size):
+                parts = p.parts(float(t[i]))
+                pu.append(parts[0][1].centre_px[0])
+                pv.append(parts[0][1].centre_px[1])
+                gap.append(min(_distractors.capsule_gap(
+                    track.end_a_px[i], track.end_b_px[i], r, c.a_px, c.b_px, c.radius_px)
+                    for _, c, _ in parts))
+            ext = p.extent(track.ts.ravel())
+            cols.update({"person_u_px": _json_list(pu), "person_v_px": _json_list(pv),
+                         "person_gap_px": _json_list(gap),
+                         "person_overlap": [bool(f["person_overlap"]) for f in info]})
+            about["person"] = {"drawn": True, "box_px": [float(v) for v in p.box],
+                               "extent_px": [float(v) for v in ext],
+                               "height_px": float(p.scale)}
+    return cols, about
 
 
 def _throw_truth(spec, throw, second):
@@ -142,6 +208,8 @@ def _throw_truth(spec, throw, second):
         "straw": {"length_m": spec.straw_length_m, "diameter_m": spec.straw_diameter_m,
                   "shape": "capsule (cylinder with hemispherical ends), length end to end"},
     }
+    if spec.distractors:
+        out["distractors"] = list(spec.distractors)
     if second is not None:
         out["second_straw"] = {"state": dict(zip(names, second[0])),
                                "release_t_s": second[1],
@@ -189,4 +257,17 @@ _CONVENTIONS = {
              "shares a pixel with the second straw",
     "world": "x_m, y_m, z_m: the rod centre in the world frame (docs/reference.md) at t_s "
              "(z relative to the machine); before release the straw rides a tooth",
+}
+
+#: Added to ``conventions`` only in a run with distractors.
+DISTRACTOR_CONVENTIONS = {
+    "distractors": "the truth is the straw's own silhouette, whatever else is drawn: "
+                   "the shadow (shadow_u_px, shadow_v_px: where the straw's centre's "
+                   "shadow falls), the rider (rider_u_px, rider_v_px its centre, "
+                   "rider_gap_px the distance between the two rods' silhouettes at t_s, "
+                   "negative when they overlap, rider_overlap: the rendered blurred "
+                   "silhouettes share a pixel) and the person (person_u_px, person_v_px "
+                   "the body's centre, person_gap_px its distance to the straw) are not "
+                   "part of it; the highlight lies inside the straw's silhouette. "
+                   "views.<v>.distractors describes what each view drew",
 }

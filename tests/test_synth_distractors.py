@@ -1,0 +1,319 @@
+"""vidtrack synth's distractors (what real footage taught): the shadow, the rider, the dark
+straw with its highlight, the person at the side.
+
+- render only: each distractor is really in the frames, where truth.json says, and
+  nowhere else (a render with the option against the same render without it: same seed,
+  same noise), so the tracking tests cannot pass vacuously;
+- off by default: a run without them is rendered byte for byte as before (the bundled
+  datasets/run42, from its documented command);
+- end to end: the real ``vidtrack fit RUN --json --no-report`` on each case, against
+  truth.json (written by the renderer from geometry): every unflagged frame of each view
+  within 0.5 px of the straw's coverage centroid, k1..k3 within 3 % and k4 within 5 %,
+  and no unflagged frame nearer a distractor than the straw.
+
+A case that fails on the tracker (vidtrack/track, not this module's to change) is marked
+xfail(strict=True) with what was measured; docs/synth.md, "Distractors", has the figures.
+"""
+
+import csv
+import json
+import math
+
+import numpy as np
+import pytest
+
+from vidtrack.footage import open_source
+from vidtrack.synth import SynthSpec, render_run
+
+REPO = __import__("pathlib").Path(__file__).resolve().parents[1]
+
+#: The run every end-to-end case renders (the scale of tests/test_cli_fit.py), 372
+#: frames a view, then the case's options.
+BASE = ["--size", "320x150", "--top-size", "320x96", "--straw-length-m", "0.25",
+        "--straw-diameter-m", "0.025", "--quality", "60", "--noise", "1.0",
+        "--flight-s", "0.3"]
+
+#: case -> (options, the distractor columns of truth.json it adds)
+CASES = {
+    "shadow": (["--shadow", "4,0.4,1.5"], ("shadow",)),
+    "rider_riding": (["--rider", "riding"], ("rider",)),
+    "rider_crossing": (["--rider", "crossing"], ("rider",)),
+    "dark": (["--straw-polarity", "dark"], ()),
+    "dark_highlight": (["--straw-polarity", "dark", "--highlight", "0.95"], ()),
+    "person": (["--person-at-side"], ("person",)),
+}
+
+#: Measured on the tracker of 2026-11 (commit bfe59e6 + the tracker then in the checkout).
+_XFAIL = {
+    "rider_riding": "tracker: front view 'the straw never appears in frames 0..371 ... none "
+                    "moved steadily over 3 consecutive frames'; top view all 372 frames "
+                    "MERGED; vidtrack fit exits 2",
+    "rider_crossing": "tracker: front view 368 of 372 frames MERGED, 0 usable; top view "
+                      "16 usable (206 LOST); vidtrack fit exits 2 'no usable point'",
+    "dark": "tracker: top view frame 36 unflagged at 2.64 px from the truth (every other "
+            "unflagged frame within 0.09 px; k within 0.03 %)",
+    "dark_highlight": "tracker: the highlight pulls the centroid: front median 0.64 px, max "
+                      "2.70 px over 206 of 336 unflagged frames, top median 0.54 px; k4 "
+                      "+17 %, k1 -2.1 %",
+}
+
+
+def _case_param(name):
+    marks = []
+    if name in _XFAIL:
+        marks.append(pytest.mark.xfail(strict=True, reason=_XFAIL[name]))
+    return pytest.param(name, marks=marks, id=name)
+
+
+# ---------------------------------------------------------------------------- render only
+
+SMALL = dict(size_px=(320, 150), top_size_px=(320, 96), straw_length_m=0.25,
+             straw_diameter_m=0.025, flight_s=0.3, frames=200, output_format="png",
+             exposure_samples=4)
+
+
+def _frames(folder, view):
+    with open_source(folder / view) as src:
+        return np.stack([np.asarray(f, dtype=np.float64) for f in src])
+
+
+@pytest.fixture(scope="module")
+def plain(tmp_path_factory):
+    out = tmp_path_factory.mktemp("plain") / "run"
+    render_run(out, SynthSpec(**SMALL))
+    return out
+
+
+def _render(tmp_path, **extra):
+    out = tmp_path / "run"
+    render_run(out, SynthSpec(**{**SMALL, **extra}))
+    return out, json.loads((out / "truth.json").read_text())
+
+
+def _table(truth, view):
+    return {k: np.asarray(v, dtype=object) for k, v in
+            truth["views"][view]["per_frame"].items()}
+
+
+def test_shadow_darkens_the_background_at_its_offset_only(tmp_path, plain):
+    out, truth = _render(tmp_path, shadow=(5.0, 0.4, 0.8))
+    assert truth["truth"]["distractors"] == ["shadow"]
+    for view in ("front", "top"):
+        tab = _table(truth, view)
+        off = truth["views"][view]["distractors"]["shadow"]["offset_px"]
+        assert off == pytest.approx([5 / math.sqrt(2)] * 2)
+        with_, without = _frames(out, view), _frames(plain, view)
+        i = 150                                   # in flight, well away from the rotor
+        u, v = float(tab["shadow_u_px"][i]), float(tab["shadow_v_px"][i])
+        su, sv = float(tab["u_px"][i]), float(tab["v_px"][i])
+        assert (u - su, v - sv) == pytest.approx(tuple(off))
+        # the shadow's centre is off the straw (radius 1.7 px): darker by about darken
+        ratio = with_[i, round(v), round(u)] / without[i, round(v), round(u)]
+        assert ratio < 1 - 0.5 * 0.4, ratio
+        # nothing changes far from the straw and its shadow
+        diff = np.abs(with_[i] - without[i]) > 0.5
+        rows, cols = np.nonzero(diff)
+        reach = 0.5 * 0.25 / truth["views"][view]["m_per_px"] + 5 + 4 * 0.8 + 3
+        assert np.all(np.hypot(cols - su, rows - sv) < reach + 6)
+        assert diff.sum() > 20
+        # the straw itself is untouched: the truth did not move
+        assert float(tab["u_coverage_px"][i]) == pytest.approx(
+            json.loads((plain / "truth.json").read_text())["views"][view]["per_frame"]
+            ["u_coverage_px"][i], abs=1e-12)
+
+
+@pytest.mark.parametrize("mode", ["riding", "crossing"])
+def test_rider_is_drawn_where_the_truth_says(tmp_path, plain, mode):
+    out, truth = _render(tmp_path, rider=mode)
+    for view in ("front", "top"):
+        tab = _table(truth, view)
+        with_, without = _frames(out, view), _frames(plain, view)
+        fl = np.array([p == "flight" for p in tab["phase"]])
+        assert all(x is None for x in tab["rider_u_px"][~fl])     # from the release on
+        seen = 0
+        for i in np.flatnonzero(fl):
+            gap = tab["rider_gap_px"][i]
+            if gap is None or gap < 2.0:
+                continue
+            u, v = round(float(tab["rider_u_px"][i])), round(float(tab["rider_v_px"][i]))
+            if not (0 <= u < with_.shape[2] and 0 <= v < with_.shape[1]):
+                continue
+            # the rider (half the straw's contrast: 0.2 * 255) shows at its centre pixel
+            assert with_[i, v, u] - without[i, v, u] > 0.3 * 0.2 * 255, (view, i)
+            seen += 1
+        assert seen > 20, (view, seen)
+        # the straw's own truth is unchanged
+        ref = json.loads((plain / "truth.json").read_text())["views"][view]["per_frame"]
+        np.testing.assert_allclose(np.asarray(tab["u_coverage_px"], float),
+                                   np.asarray(ref["u_coverage_px"], float), atol=1e-12)
+    if mode == "riding":                     # beside the straw all along, never on it
+        gaps = np.array([g for g in truth["views"]["front"]["per_frame"]["rider_gap_px"]
+                         if g is not None])
+        assert gaps.min() > 1.0 and gaps.max() < 4.0
+
+
+def test_rider_crossing_crosses_the_straw():
+    """Over the whole flight the crossing rider overlaps the straw in some frames and is
+    clear of it in others (geometry only: no render)."""
+    from vidtrack.synth import _distractors
+    from vidtrack.synth.motion import _make_throws, straw_pose
+
+    spec = SynthSpec(**{**SMALL, "frames": None}, rider="crossing")
+    th = _make_throws(spec)[0]
+    t = np.linspace(0, spec.flight_s, 361)
+    c, d = straw_pose(t, th.state, th.k, spec=spec, blade_rad_s=th.blade_rad_s,
+                      spin_rad_s=th.spin_rad_s)
+    cr, _ = _distractors.rider_pose(t, spec, th, c, d)
+    sep = np.linalg.norm(cr - c, axis=1)
+    assert sep[0] == pytest.approx(0.6 * 0.25) and sep[-1] == pytest.approx(0.6 * 0.25)
+    assert sep.min() < 1e-3                        # centres meet at mid-flight
+
+
+def test_dark_straw_with_highlight_has_both_polarities(tmp_path, plain):
+    out, truth = _render(tmp_path, straw_polarity="dark", highlight_grey=0.95)
+    about = truth["views"]["front"]["distractors"]["straw"]
+    assert about["polarity"] == "dark" and about["level"] == pytest.approx(0.05)
+    for view in ("front", "top"):
+        tab = _table(truth, view)
+        frames, ref = _frames(out, view), _frames(plain, view)
+        i = 150
+        u, v = float(tab["u_px"][i]), float(tab["v_px"][i])
+        r0, c0 = round(v), round(u)
+        win = (slice(r0 - 8, r0 + 9), slice(c0 - 8, c0 + 9))
+        delta = frames[i][win] - ref[i][win]          # the straw: dark now, bright before
+        static = ref[0][win]
+        assert (frames[i][win] - static).min() < -0.25 * 255       # dark straw
+        assert (frames[i][win] - static).max() > 0.15 * 255        # bright highlight
+        assert delta.min() < -0.5 * 255
+        # the highlight lies inside the silhouette: the straw's truth is unchanged
+        ref_t = json.loads((plain / "truth.json").read_text())["views"][view]["per_frame"]
+        np.testing.assert_allclose(np.asarray(tab["u_coverage_px"], float),
+                                   np.asarray(ref_t["u_coverage_px"], float), atol=1e-12)
+
+
+def test_person_moves_at_the_side_and_never_touches_the_path(tmp_path, plain):
+    out, truth = _render(tmp_path, person_at_side=True)
+    drawn = 0
+    for view in ("front", "top"):
+        about = truth["views"][view]["distractors"]["person"]
+        if not about["drawn"]:
+            continue
+        drawn += 1
+        tab = _table(truth, view)
+        assert min(float(g) for g in tab["person_gap_px"]) > 8.0
+        assert not any(tab["person_overlap"])
+        with_, without = _frames(out, view), _frames(plain, view)
+        u0, u1, v0, v1 = about["extent_px"]
+        diff = np.abs(with_ - without) > 0.5
+        rows, cols = np.nonzero(diff.any(axis=0))
+        assert rows.size > 200                                # a large region
+        assert cols.min() >= math.floor(u0) and cols.max() <= math.ceil(u1)
+        assert rows.min() >= math.floor(v0) and rows.max() <= math.ceil(v1)
+        box = (slice(math.floor(v0), math.ceil(v1) + 1), slice(math.floor(u0), math.ceil(u1) + 1))
+        moving = np.abs(with_[-1][box] - with_[0][box]) > 10
+        assert moving.sum() > 30                              # it sways and swings
+    assert drawn >= 1
+    # its truth is the straw's, unchanged
+    ref = json.loads((plain / "truth.json").read_text())["views"]["front"]["per_frame"]
+    np.testing.assert_allclose(
+        np.asarray(truth["views"]["front"]["per_frame"]["u_coverage_px"], float),
+        np.asarray(ref["u_coverage_px"], float), atol=1e-12)
+
+
+def test_off_by_default_and_deterministic(tmp_path):
+    spec = SynthSpec()
+    d = spec.to_dict()
+    for name in ("shadow", "rider", "straw_polarity", "highlight_grey", "person_at_side"):
+        assert name not in d
+    assert spec.distractors == () and spec.straw_level == spec.straw_grey
+    a, _ = _render(tmp_path / "a", shadow=(3.0, 0.5, 1.0), rider="crossing",
+                   person_at_side=True, frames=30)
+    b, _ = _render(tmp_path / "b", shadow=(3.0, 0.5, 1.0), rider="crossing",
+                   person_at_side=True, frames=30)
+    assert np.array_equal(_frames(a, "front"), _frames(b, "front"))
+
+
+def test_run42_is_rendered_byte_for_byte_as_bundled(tmp_path, vidtrack_cli):
+    """datasets/run42 from its documented command (datasets/README.md): the footage and
+    scene unchanged, truth.json unchanged but for the version that wrote it."""
+    out = tmp_path / "run42"
+    res = vidtrack_cli("synth", out, "--size", "400x184", "--top-size", "400x112",
+                       "--flight-s", "0.3", "--straw-length-m", "0.25",
+                       "--straw-diameter-m", "0.025", "--quality", "40", "--noise", "1.0",
+                       "-q")
+    assert res.returncode == 0, res.stderr
+    bundled = REPO / "datasets" / "run42"
+    for name in ("front.avi", "top.avi", "scene.toml"):
+        assert (out / name).read_bytes() == (bundled / name).read_bytes(), name
+    new, old = (json.loads((f / "truth.json").read_text()) for f in (out, bundled))
+    new.pop("vidtrack_version"), old.pop("vidtrack_version")
+    assert new == old
+
+
+@pytest.mark.parametrize("bad", [["--shadow", "0,0.4,1"], ["--shadow", "4,1.5,1"],
+                                 ["--highlight", "0.86"],
+                                 ["--rider", "riding", "--cameras", "perspective"]])
+def test_bad_distractor_options_exit_2(tmp_path, vidtrack_cli, bad):
+    out = tmp_path / "bad"
+    res = vidtrack_cli("synth", out, *bad)
+    assert res.returncode == 2, res.stderr
+    assert not out.exists()
+
+
+# ---------------------------------------------------------------------------- end to end
+
+@pytest.fixture(scope="module")
+def fitted(tmp_path_factory):
+    """case -> (run folder, CompletedProcess of vidtrack fit), rendered and fitted once."""
+    from conftest import run_vidtrack
+
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            out = tmp_path_factory.mktemp(name) / "run"
+            res = run_vidtrack("synth", out, *BASE, *CASES[name][0], "-q")
+            assert res.returncode == 0, res.stderr
+            cache[name] = (out, run_vidtrack("fit", out, "--json", "--no-report", "-q"))
+        return cache[name]
+    return get
+
+
+def _unflagged(run):
+    with open(run / "vidtrack" / "tracks.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    out = {}
+    for r in rows:
+        if int(r["flags"]) == 0 and r["u_px"] not in ("", "nan", "NaN"):
+            out.setdefault(r["view"], []).append((int(r["frame"]), float(r["u_px"]),
+                                                  float(r["v_px"])))
+    return out
+
+
+@pytest.mark.parametrize("name", [_case_param(n) for n in CASES])
+def test_fit_against_truth(fitted, name):
+    run, res = fitted(name)
+    assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
+    truth = json.loads((run / "truth.json").read_text())
+    record = json.loads(res.stdout)
+    tracked = _unflagged(run)
+    kinds = CASES[name][1]
+    for view, pts in tracked.items():
+        tab = truth["views"][view]["per_frame"]
+        assert len(pts) >= 0.5 * len(tab["frame"]), (view, len(pts))
+        bad, followed = [], []
+        for i, u, v in pts:
+            # the coverage centroid of the straw alone: what a perfect tracker measures
+            err = math.hypot(u - tab["u_coverage_px"][i], v - tab["v_coverage_px"][i])
+            if err > 0.5:
+                bad.append((i, round(err, 3)))
+            for kind in kinds:
+                du, dv = tab[f"{kind}_u_px"][i], tab[f"{kind}_v_px"][i]
+                if du is not None and math.hypot(u - du, v - dv) < err:
+                    followed.append((kind, i))
+        assert not bad, f"{view}: {len(bad)} unflagged frames > 0.5 px off: {bad[:10]}"
+        assert not followed, f"{view}: nearer the distractor than the straw: {followed[:10]}"
+    for k, tol in (("k1", 0.03), ("k2", 0.03), ("k3", 0.03), ("k4", 0.05)):
+        c = record["coefficients"][k]
+        assert c["determined"], (k, c)
+        assert c["value"] == pytest.approx(truth["truth"]["k"][k], rel=tol), k
