@@ -17,6 +17,20 @@ plus 6 robust standard deviations, at least twice the median and at least 0.5 px
 flagged and not fitted. With two views only an error across the epipolar line shows; one
 along it moves the point in depth unseen: a third view catches it.
 
+A straw is a rod, and a rod slanted in depth images with its near half longer and wider
+than its far half: each view's tracked centroid (the silhouette's) is off the projection
+of the rod's centre, towards its near end, by up to about f L^2 / (6 depth^2) px (0.3 px
+for a 0.12 m straw at 1 m). After the first triangulation the rod is placed in 3-D
+(:mod:`vidtrack.world.rod_centroid`): its axis from the views' image lines (the centroid
+and the tracked angle: each line back-projects to a plane through its camera's centre;
+the planes meet in the axis), its length and radius from the views' ``length_px`` and
+``area_px`` (medians over the flight), and each view's centroid is moved by the
+predicted offset of the silhouette's centroid from the projected centre; the views are
+triangulated again (twice). Frames whose axis is not determined (fewer than two views
+with an elongated image, or their planes less than 10 degrees apart: a rod lying in the
+plane of two cameras and itself) are left as measured and counted. Points digitized
+elsewhere carry no angle: nothing is corrected then.
+
 The throw's frame: the calibration's frame is rotated so that Y is up (``[world] up``) and
 X is the throw's horizontal direction (``[world] forward``, or the horizontal part of the
 initial velocity of a quadratic fitted to the points); Z = X x Y completes a right-handed
@@ -72,6 +86,11 @@ class CalibratedWorld:
     flag_threshold_px : float
         Rows with any view beyond this are flagged.
     warnings : tuple of str
+    rod : dict or None
+        The rod correction (``triangulate_views(rod=...)``): ``taper``, ``length_m``,
+        ``radius_m``, ``min_plane_angle_deg``; with the per-row columns
+        ``rod_shift_px_<view>`` (the length of each view's correction, NaN where none) it
+        gives :meth:`to_dict`'s ``rod_correction``. None: not asked for.
     """
 
     data: object
@@ -83,6 +102,7 @@ class CalibratedWorld:
     median_reprojection_px: float
     flag_threshold_px: float
     warnings: tuple = ()
+    rod: dict | None = None
 
     def __repr__(self):
         ok = int(np.count_nonzero(self.data["flags"].to_numpy() == 0))
@@ -100,13 +120,75 @@ class CalibratedWorld:
                 "forward_from": self.forward_from,
                 "median_reprojection_px": float(self.median_reprojection_px),
                 "flag_threshold_px": float(self.flag_threshold_px),
-                "warnings": list(self.warnings)}
+                "warnings": list(self.warnings),
+                **({"rod_correction": rc} if (rc := self.rod_summary()) else {})}
+
+    def rod_summary(self):
+        """The rod correction in numbers, or None where none was made: ``rows_corrected``
+        and ``rows_not_corrected`` (triangulated rows whose axis was not determined),
+        ``median_px`` and ``max_px`` (the views' corrections' lengths), per view
+        ``median_px_<view>``; with the settings (:attr:`rod`) when known."""
+        cols = [c for c in self.data.columns if c.startswith("rod_shift_px_")]
+        if not cols:
+            return None
+        shifts = self.data[cols].to_numpy(dtype=np.float64)
+        done = np.isfinite(shifts).any(axis=1)
+        vals = shifts[np.isfinite(shifts)]
+        out = {**(self.rod or {}), "rows_corrected": int(done.sum()),
+               "rows_not_corrected": int((~done).sum()),
+               "median_px": float(np.median(vals)) if vals.size else None,
+               "max_px": float(np.max(vals)) if vals.size else None}
+        for c in cols:
+            v = self.data[c].to_numpy(dtype=np.float64)
+            v = v[np.isfinite(v)]
+            out[f"median_px_{c[len('rod_shift_px_'):]}"] = float(np.median(v)) if v.size \
+                else None
+        return out
 
 
 def _usable(track):
     d = track.data
     ok = track.usable
-    return d["frame"].to_numpy()[ok], d[["u_px", "v_px"]].to_numpy(float)[ok]
+    shape = d[[c for c in _SHAPE_COLUMNS if c in d]].to_numpy(float)[ok]
+    if shape.shape[1] != len(_SHAPE_COLUMNS):
+        shape = np.full((int(np.count_nonzero(ok)), len(_SHAPE_COLUMNS)), np.nan)
+    return d["frame"].to_numpy()[ok], d[["u_px", "v_px"]].to_numpy(float)[ok], shape
+
+
+#: A track's columns that describe the rod's image (the tracker's; NaN for points).
+_SHAPE_COLUMNS = ("angle_rad", "length_px", "area_px")
+#: The rod correction's settings: two views' planes must be this far from parallel, a
+#: view's image this elongated (axis length / diameter of the capsule its moments fit)
+#: for its angle to count, and the correction is iterated this many times.
+ROD_MIN_PLANE_ANGLE_DEG = 10.0
+ROD_MIN_ELONGATION = 1.5
+ROD_ITERATIONS = 2
+#: Rows without an axis between rows with one are interpolated (the rod turns smoothly)
+#: across at most this many rows where the axes on either side differ by at most this.
+ROD_MAX_GAP_ROWS = 60
+ROD_MAX_GAP_TURN_DEG = 60.0
+
+
+def _fill_axis(axis, t):
+    """Axes interpolated in time across short gaps (in place); returns how many rows."""
+    have = np.flatnonzero(np.all(np.isfinite(axis), axis=1))
+    if have.size < 2:
+        return 0
+    for i in range(1, have.size):                 # one sense along the flight
+        if np.dot(axis[have[i]], axis[have[i - 1]]) < 0:
+            axis[have[i]] = -axis[have[i]]
+    filled = 0
+    for a, b in zip(have[:-1], have[1:]):
+        if b - a < 2 or b - a - 1 > ROD_MAX_GAP_ROWS:
+            continue
+        if np.degrees(np.arccos(np.clip(np.dot(axis[a], axis[b]), -1, 1))) > \
+                ROD_MAX_GAP_TURN_DEG:
+            continue
+        w = ((t[a + 1:b] - t[a]) / (t[b] - t[a]))[:, None]
+        mid = (1 - w) * axis[a] + w * axis[b]
+        axis[a + 1:b] = mid / np.linalg.norm(mid, axis=1, keepdims=True)
+        filled += int(b - a - 1)
+    return filled
 
 
 def _at(times, t_view, uv_view, fps):
@@ -291,8 +373,87 @@ def throw_rotation(xyz, t, up, forward=None):
     return np.vstack([x, y, z]), source
 
 
+def _rod_lines(uv, shape_rows):
+    """A view's image lines at the rows: the unit direction (camera's convention; NaN
+    where the image is not elongated enough to give an angle) and the capsule its moments
+    fit (axis length, radius; px)."""
+    from vidtrack.world.rod_centroid import capsule_from_moments
+
+    c2, s2, length, area = shape_rows.T
+    theta = 0.5 * np.arctan2(s2, c2)
+    ell, rho = capsule_from_moments(length, area)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        long_enough = ell >= ROD_MIN_ELONGATION * 2.0 * rho
+    direction = np.column_stack([np.cos(theta), np.sin(theta)])
+    direction[~(long_enough & np.all(np.isfinite(uv), axis=1))] = np.nan
+    return direction, ell, rho
+
+
+def _rod_correction(cams, uvs, shapes, tri, taper, t_rows):
+    """Correct each view's centroids for the rod's perspective and triangulate again.
+
+    Returns the new triangulation, the corrections' lengths (N, M; NaN where none) and
+    the settings found (taper, length_m, radius_m, ...), or the first triangulation and
+    None where the rod could not be measured."""
+    from calibration.triangulation import triangulate
+
+    from vidtrack.world.rod_centroid import (axis_from_lines, pixels_per_m,
+                                             silhouette_bias)
+
+    n, m = len(uvs[0]), len(cams)
+    lines = [_rod_lines(uv, sh) for uv, sh in zip(uvs, shapes)]
+    axis, _ = axis_from_lines(cams, np.stack(uvs, axis=1),
+                              np.stack([ln[0] for ln in lines], axis=1),
+                              min_angle_deg=ROD_MIN_PLANE_ANGLE_DEG)
+    measured = int(np.all(np.isfinite(axis), axis=1).sum())
+    filled = _fill_axis(axis, t_rows)
+    xyz = tri.xyz
+    rows = np.all(np.isfinite(axis), axis=1) & np.all(np.isfinite(xyz), axis=1)
+    # the rod's size: each view where its image is elongated and it lies at least 70 %
+    # across the line of sight, the capsule of its moments scaled back to metres
+    lengths, radii = [], []
+    probe = 0.1
+    for cam, (direction, ell, rho) in zip(cams, lines):
+        ok = rows & np.all(np.isfinite(direction), axis=1) & np.isfinite(ell)
+        if not ok.any():
+            continue
+        x, d = xyz[ok], axis[ok]
+        sight = x - cam.centre
+        sight /= np.linalg.norm(sight, axis=1, keepdims=True)
+        across = np.sqrt(np.clip(1.0 - np.sum(d * sight, axis=1) ** 2, 0.0, None))
+        unit = np.linalg.norm(cam.project(x + 0.5 * probe * d) - cam.project(x - 0.5 * probe * d),
+                              axis=1) / probe
+        keep = across >= 0.7
+        lengths.append((ell[ok] / unit)[keep])
+        radii.append((rho[ok] / pixels_per_m(cam, x))[keep])
+    lengths = np.concatenate(lengths) if lengths else np.empty(0)
+    radii = np.concatenate(radii) if radii else np.empty(0)
+    lengths, radii = lengths[np.isfinite(lengths)], radii[np.isfinite(radii)]
+    if lengths.size < _MIN_OVERLAP or not rows.any():
+        return tri, None, None
+    length_m, radius_m = float(np.median(lengths)), float(np.median(radii))
+    shifts = np.full((n, m), np.nan)
+    for _ in range(ROD_ITERATIONS):
+        rows = np.all(np.isfinite(axis), axis=1) & np.all(np.isfinite(tri.xyz), axis=1)
+        fixed = []
+        for j, (cam, uv) in enumerate(zip(cams, uvs)):
+            bias = np.zeros_like(uv)
+            bias[rows] = silhouette_bias(cam, tri.xyz[rows], axis[rows], length_m, radius_m,
+                                         taper=taper)
+            bias[~np.isfinite(bias)] = 0.0
+            fixed.append(uv - bias)
+            shifts[:, j] = np.where(rows & np.all(np.isfinite(uv), axis=1),
+                                    np.linalg.norm(bias, axis=1), np.nan)
+        tri = triangulate(cams, fixed)
+    settings = {"taper": taper, "length_m": length_m, "radius_m": radius_m,
+                "min_plane_angle_deg": ROD_MIN_PLANE_ANGLE_DEG,
+                "iterations": ROD_ITERATIONS, "rows_axis_measured": measured,
+                "rows_axis_interpolated": filled}
+    return tri, shifts, settings
+
+
 def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up,
-                      forward=None):
+                      forward=None, rod="perspective"):
     """Triangulate the views' tracks frame by frame and rotate into the throw's frame.
 
     Parameters
@@ -309,6 +470,12 @@ def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up
         camera's is bottom-left (tracked footage with a DLTdv calibration).
     up, forward : array_like, shape (3,)
         The world's vertical and (optional) throwing direction in the calibration frame.
+    rod : {"perspective", "uniform"} or None
+        Correct the views' centroids for the perspective of a rod (see the module):
+        ``"perspective"`` (default) for a real rod, its near end imaged wider;
+        ``"uniform"`` for a silhouette of one width (as ``vidtrack synth`` draws it);
+        None: the centroids as measured. Views without the tracker's ``angle_rad``,
+        ``length_px`` and ``area_px`` (points digitized elsewhere) give no axis.
 
     Returns
     -------
@@ -323,17 +490,25 @@ def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up
 
     from calibration.triangulation import triangulate
 
+    from vidtrack.world.rod_centroid import TAPERS
+
+    if rod is not None and rod not in TAPERS:
+        raise ValueError(f"rod must be one of {TAPERS} or None, got {rod!r}")
     names = list(tracks)
     if len(names) < 2:
         raise TrackError("calibrated cameras: triangulation needs two or more views; "
                          f"the scene has {len(names)} ({', '.join(names)})")
     sync = dict(sync or {})
     image_heights = dict(image_heights or {})
-    clocks = {}
+    clocks, shapes = {}, {}
     for n in names:
-        frames, uv = _usable(tracks[n])
+        frames, uv, shape = _usable(tracks[n])
+        # the image angle as a doubled-angle vector (interpolates across +-pi/2)
+        c, si = np.cos(shape[:, 0]), np.sin(shape[:, 0])
         if n in image_heights:
             uv = cameras[n].from_image_pixels(uv, image_heights[n])
+            si = -si
+        shapes[n] = (np.column_stack([c * c - si * si, 2.0 * c * si]), shape[:, 1:3])
         if len(frames) < 2:
             raise TrackError(f"view {n}: {len(frames)} usable frame(s): nothing to triangulate")
         clocks[n] = (frames / float(fps[n]), uv, float(fps[n]), frames)
@@ -358,7 +533,18 @@ def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up
     uvs = [ref_clock[1] if n == reference
            else _at(t_rows + offsets[n], clocks[n][0], clocks[n][1], clocks[n][2])
            for n in names]
-    tri = triangulate([cameras[n] for n in names], uvs)
+    cams = [cameras[n] for n in names]
+    tri = triangulate(cams, uvs)
+    shifts = settings = None
+    if rod is not None and any(np.isfinite(shapes[n][0]).any() for n in names):
+        rows_shape = [np.column_stack(
+            [shapes[n][0], shapes[n][1]] if n == reference else
+            [_at(t_rows + offsets[n], clocks[n][0], shapes[n][k], clocks[n][2])
+             for k in (0, 1)]) for n in names]
+        tri, shifts, settings = _rod_correction(cams, uvs, rows_shape, tri, rod, t_rows)
+        if shifts is None:
+            log.info("rod correction: the rod's length could not be measured (too few "
+                     "frames with an elongated image in a view): centroids as measured")
     ok = np.isfinite(tri.xyz[:, 0])
     if ok.sum() < 3:
         raise TrackError("calibrated cameras: fewer than 3 frames are seen by two or more "
@@ -381,6 +567,13 @@ def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up
     for j, n in enumerate(names):
         data[f"reprojection_px_{n}"] = res[:, j]
     data.update({"X_m": xyz[:, 0], "Y_m": xyz[:, 1], "Z_m": xyz[:, 2]})
+    if shifts is not None:
+        for j, n in enumerate(names):
+            data[f"rod_shift_px_{n}"] = shifts[ok, j]
+        done = np.isfinite(shifts[ok]).any(axis=1)
+        log.info("rod correction (%s, %.3g m x %.3g m): %d of %d rows corrected, median "
+                 "%.3g px", rod, settings["length_m"], 2 * settings["radius_m"],
+                 int(done.sum()), len(done), float(np.nanmedian(shifts[ok])))
     good = res[keep]
     med_ok = float(np.median(good[np.isfinite(good)])) if keep.any() else med
     if int(np.count_nonzero(flags)):
@@ -389,4 +582,4 @@ def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up
     return CalibratedWorld(data=pd.DataFrame(data), reference=reference, offsets_s=offsets,
                            sync=how, rotation=rot, forward_from=source,
                            median_reprojection_px=med_ok, flag_threshold_px=thr,
-                           warnings=tuple(warnings))
+                           warnings=tuple(warnings), rod=settings)
