@@ -47,6 +47,10 @@ def render_markdown(record):
                   f"{summary['forward_from']}.", ""]
     for note in record.get("notes", []):
         lines.append(f"- {note}")
+    if "views" in record:
+        lines += ["", "The contact sheet (crops of the footage round the straw, with the "
+                  "measured point, the fitted path and the flags) is in report.html; "
+                  "`vidtrack overlay RUN` draws the same on every frame."]
     return "\n".join(lines) + "\n"
 
 
@@ -155,11 +159,26 @@ def tracks_image(views):
     return _html.png(_track_plot(views), alt="tracks")
 
 
-def render_html(record, *, fit=None, world=None, views=None, tracks_img=None, curves=None):
+#: Where the contact sheet goes in a page drawn without it (:func:`with_contact_sheet`).
+CONTACT_SHEET_SLOT = "<!-- vidtrack:contact-sheet -->"
+
+
+def with_contact_sheet(html, section):
+    """report.html with the contact-sheet ``section`` in its place (a page drawn by
+    :func:`render_html` without one, e.g. in the worker process)."""
+    if CONTACT_SHEET_SLOT in html:
+        return html.replace(CONTACT_SHEET_SLOT, section, 1)
+    return html.replace("</body>", section + "</body>", 1)
+
+
+def render_html(record, *, fit=None, world=None, views=None, tracks_img=None, curves=None,
+                contact_sheet=None):
     """report.html: the tables of report.md and the plots, self-contained.
 
     ``tracks_img``: the tracks plot already drawn (:func:`tracks_image`), else it is
-    drawn from ``views``; ``curves``: :func:`fit_curves`, else computed from ``fit``.
+    drawn from ``views``; ``curves``: :func:`fit_curves`, else computed from ``fit``;
+    ``contact_sheet``: the section of :func:`vidtrack.report.contact_sheet.
+    contact_sheet_html` (without it, a slot :func:`with_contact_sheet` fills).
     """
     parts = [f"<p>Model <b>{_html.esc(record['model'])}</b>, Cp = "
              f"{_html.num(record['cp_s_per_m'])} s/m, throws: {record['throws']}.</p>"]
@@ -203,6 +222,8 @@ def render_html(record, *, fit=None, world=None, views=None, tracks_img=None, cu
         tracks_img = tracks_image(views)
     if tracks_img:
         parts += ["<h2>Tracks over frames</h2>", tracks_img]
+    if "views" in record:
+        parts.append(contact_sheet if contact_sheet is not None else CONTACT_SHEET_SLOT)
     for note in record.get("notes", []):
         parts.append(f'<p class="note">{_html.esc(note)}</p>')
     parts.append("<p class=\"muted\">Timings (s): " + ", ".join(

@@ -1,0 +1,248 @@
+"""``vidtrack overlay RUN`` end to end, and the fitted path in a view's pixels.
+
+Truth the code did not produce: the footage's own frame count and size (read by OpenCV),
+tracks.csv (the tracker's numbers, written by ``vidtrack fit``) and truth.json (the
+renderer's projected straw centre). The overlay is read back with cv2.VideoCapture and
+its markers found by their colour.
+"""
+
+import hashlib
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+cv2 = pytest.importorskip("cv2")
+
+REPO = Path(__file__).resolve().parents[1]
+RUN42 = REPO / "datasets" / "run42"
+
+#: The colours docs/fit-outputs.md gives (B, G, R): unflagged, then by lowest flag bit.
+PALETTE = {0: (0, 255, 0), 1: (0, 140, 255), 2: (0, 0, 255), 4: (255, 0, 255),
+           16: (0, 255, 255), 32: (255, 128, 0), 64: (128, 0, 255), 128: (255, 255, 0)}
+
+
+def expected_colour(flags):
+    flags = int(flags)
+    return PALETTE[flags & -flags] if flags else PALETTE[0]
+
+
+def copy_run(dst):
+    shutil.copytree(RUN42, dst, ignore=shutil.ignore_patterns("vidtrack"))
+    return dst
+
+
+def digests(folder):
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(Path(folder).rglob("*")) if p.is_file()}
+
+
+@pytest.fixture(scope="module")
+def drawn(tmp_path_factory, ):
+    """run42 without outputs: ``vidtrack overlay`` fits it first, then draws."""
+    from conftest import run_vidtrack
+
+    run = copy_run(tmp_path_factory.mktemp("overlay") / "run")
+    res = run_vidtrack("overlay", run)
+    assert res.returncode == 0, res.stderr
+    return run, res
+
+
+def read_video(path):
+    cap = cv2.VideoCapture(str(path))
+    frames = []
+    while True:
+        ok, img = cap.read()
+        if not ok:
+            break
+        frames.append(img)
+    cap.release()
+    return frames
+
+
+def ring(img, u, v, half=25, banner=None):
+    """Centre and median colour of the saturated pixels within ``half`` px of (u, v)."""
+    hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV)
+    mask = (hsv[..., 1] > 110) & (hsv[..., 2] > 110)
+    if banner is not None:
+        mask[:banner] = False
+    r0, c0 = max(int(v) - half, 0), max(int(u) - half, 0)
+    win = mask[r0:int(v) + half + 1, c0:int(u) + half + 1]
+    rr, cc = np.nonzero(win)
+    if rr.size < 10:
+        return None, None
+    colour = np.median(img[r0:, c0:][rr, cc].astype(float), axis=0)
+    return (cc.mean() + c0, rr.mean() + r0), colour
+
+
+def nearest(colour):
+    cols = {k: np.array(c, float) for k, c in PALETTE.items()}
+    return min(cols, key=lambda k: np.linalg.norm(cols[k] - colour))
+
+
+def test_overlay_fits_first_and_writes_every_frame(drawn):
+    run, res = drawn
+    assert "fitting first" in res.stderr
+    assert (run / "vidtrack" / "fit.json").is_file()
+    for view in ("front", "top"):
+        src = cv2.VideoCapture(str(run / f"{view}.avi"))
+        n_src = len(read_video(run / f"{view}.avi"))
+        w = int(src.get(cv2.CAP_PROP_FRAME_WIDTH))
+        h = int(src.get(cv2.CAP_PROP_FRAME_HEIGHT))
+        out = read_video(run / "vidtrack" / f"overlay_{view}.mp4")
+        assert len(out) == n_src == 372
+        assert out[0].shape == (h, w, 3)
+    assert not list((run / "vidtrack").glob(".*part*"))      # no temporary file left
+
+
+def test_marker_at_tracked_pixel_in_flag_colour(drawn):
+    run, _ = drawn
+    tracks = pd.read_csv(run / "vidtrack" / "tracks.csv")
+    checked, colours = 0, set()
+    for view in ("front", "top"):
+        frames = read_video(run / "vidtrack" / f"overlay_{view}.mp4")
+        rows = tracks[(tracks.view == view)].set_index("frame")
+        sample = list(range(0, len(frames), 9)) + list(range(0, 30))   # flagged early
+        for f in sorted(set(sample)):
+            r = rows.loc[f]
+            if not np.isfinite(r.u_px) or r.v_px < 45:    # lost, or under the banner
+                continue
+            centre, colour = ring(frames[f], r.u_px, r.v_px, banner=34)
+            assert centre is not None, (view, f)
+            err = np.hypot(centre[0] - r.u_px, centre[1] - r.v_px)
+            assert err < 1.5, (view, f, centre, (r.u_px, r.v_px))
+            flags = int(r["flags"])
+            want = expected_colour(flags)
+            assert PALETTE[nearest(colour)] == want, (view, f, flags, colour)
+            colours.add(nearest(colour))
+            checked += 1
+    assert checked > 60
+    assert 0 in colours and len(colours) >= 2         # unflagged and flagged frames seen
+
+
+def test_options_every_scale_range(tmp_path, vidtrack_cli):
+    run = copy_run(tmp_path / "run")
+    assert vidtrack_cli("fit", run).returncode == 0
+    res = vidtrack_cli("overlay", run, "--view", "top", "--every", "4", "--scale", "0.5",
+                       "--range", "100:201")
+    assert res.returncode == 0, res.stderr
+    out = read_video(run / "vidtrack" / "overlay_top.mp4")
+    assert len(out) == 26                             # frames 100, 104, ..., 200
+    assert out[0].shape == (56, 200, 3)               # 400 x 112 footage halved
+    assert not (run / "vidtrack" / "overlay_front.mp4").exists()
+    tracks = pd.read_csv(run / "vidtrack" / "tracks.csv")
+    r = tracks[(tracks.view == "top") & (tracks.frame == 160)].iloc[0]
+    centre, _ = ring(out[15], (r.u_px + 0.5) * 0.5 - 0.5, (r.v_px + 0.5) * 0.5 - 0.5,
+                     half=14)
+    assert np.hypot(centre[0] - ((r.u_px + 0.5) * 0.5 - 0.5),
+                    centre[1] - ((r.v_px + 0.5) * 0.5 - 0.5)) < 1.5
+
+
+def _no_scene(run):
+    (run / "scene.toml").unlink()
+
+
+def _output_is_file(run):
+    (run / "vidtrack").write_text("not a folder")
+
+
+def _read_only(run):
+    out = run / "vidtrack"
+    out.mkdir()
+    out.chmod(0o555)
+    try:
+        (out / ".probe").write_bytes(b"")
+    except OSError:
+        return
+    (out / ".probe").unlink()
+    out.chmod(0o755)
+    pytest.skip("this process writes into a mode-555 folder (root): no read-only folder")
+
+
+@pytest.mark.parametrize("args, setup, says", [
+    (("--view", "side"), None, "--view side"),
+    (("--every", "0"), None, "--every 0"),
+    (("--scale", "0"), None, "--scale 0"),
+    (("--scale", "nan"), None, "--scale nan"),
+    (("--range", "9:3"), None, "--range 9:3"),
+    (("--range", "x"), None, "--range x"),
+    ((), _no_scene, "no scene.toml"),
+    ((), _output_is_file, "vidtrack is a file"),
+    ((), _read_only, "cannot write"),
+])
+def test_bad_input_exit_2_one_line_inputs_untouched(tmp_path, vidtrack_cli, args, setup,
+                                                    says):
+    run = copy_run(tmp_path / "run")
+    if setup:
+        setup(run)
+    before = digests(run)
+    try:
+        res = vidtrack_cli("overlay", run, *args)
+    finally:
+        if (run / "vidtrack").is_dir():
+            (run / "vidtrack").chmod(0o755)
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and says in lines[0], res.stderr
+    assert digests(run) == before
+    assert not list(run.rglob("overlay_*"))
+
+
+def test_help_has_an_example(vidtrack_cli):
+    res = vidtrack_cli("overlay", "--help")
+    assert res.returncode == 0 and "vidtrack overlay runs/07" in res.stdout
+
+
+# ------------------------------------------------------------ the path in pixels
+
+def _path_errors(run):
+    """Distance (px) of the projected fitted path from truth.json's u_px, v_px on
+    unflagged frames of the flight, per view."""
+    from vidtrack.report.view_path import view_paths
+    from vidtrack.run.tracks_file import read_tracks
+    from vidtrack.scene import load_scene
+
+    scene = load_scene(run)
+    record = json.loads((run / "vidtrack" / "fit.json").read_text())
+    tf = read_tracks(run / "vidtrack" / "tracks.h5")
+    truth = json.loads((run / "truth.json").read_text())
+    world = {c: tf.world.data[c].to_numpy() for c in tf.world.data.columns}
+    paths = view_paths(scene, record, world,
+                       frame_shapes={n: t.frame_shape for n, t in tf.tracks.items()})
+    out = {}
+    for name, path in paths.items():
+        d = tf.tracks[name].data
+        pf = pd.DataFrame(truth["views"][name]["per_frame"]).set_index("frame")
+        uv = path.at_frames(d["frame"].to_numpy(), d["t_s"].to_numpy())
+        ok = (d["flags"].to_numpy() == 0) & np.isfinite(uv).all(axis=1)
+        ok &= (pf.loc[d["frame"], "phase"] == "flight").to_numpy()
+        true = pf.loc[d["frame"][ok], ["u_px", "v_px"]].to_numpy(float)
+        out[name] = (np.hypot(*(uv[ok] - true).T), int(ok.sum()))
+    return out
+
+
+def test_projected_path_on_truth_orthogonal(drawn):
+    run, _ = drawn
+    errs = _path_errors(run)
+    assert set(errs) == {"front", "top"}
+    for name, (e, n) in errs.items():
+        assert n > 300 and e.max() < 0.5, (name, n, e.max())
+
+
+def test_projected_path_on_truth_perspective(tmp_path, vidtrack_cli):
+    # cam1 with a lens (projection), cam2 a DLT counted from the bottom-left
+    run = tmp_path / "persp"
+    r = vidtrack_cli("synth", run, "--cameras", "perspective", "--camera-distance-m", "1.5",
+                     "--camera-angle-deg", "80", "--distortion=-0.12,0.03,0.0005,-0.0003,0",
+                     "--size", "320x240", "--flight-s", "0.2", "--straw-diameter-m", "0.02")
+    assert r.returncode == 0, r.stderr
+    r = vidtrack_cli("overlay", run, "--every", "10")
+    assert r.returncode == 0, r.stderr
+    assert len(read_video(run / "vidtrack" / "overlay_cam2.mp4")) == 26
+    errs = _path_errors(run)
+    assert set(errs) == {"cam1", "cam2"}
+    for name, (e, n) in errs.items():
+        assert n > 150 and e.max() < 0.5, (name, n, e.max())
