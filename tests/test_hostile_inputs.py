@@ -604,6 +604,90 @@ CASES += [
 ]
 
 
+def manual_csv(text, name="m.csv"):
+    """A setup writing a manual points file ``run/NAME`` (after :func:`run42_copy`)."""
+    return files({f"run/{name}": text})
+
+
+def with_manual(name="m.csv", view="front"):
+    return scene_value("manual_points", f'"{name}"', view)
+
+
+CASES += [
+    # ---- corrections of the tracker: exclude_frames, manual_points (issue 13) ---------
+    Case("fit-exclude-frames-reversed",
+         setup=run42_copy(scene=scene_value("exclude_frames", "[[10, 5]]")), args=("fit", "run"),
+         stderr=r"run/scene\.toml: views\.front\.exclude_frames\[0\] must be a non-empty range "
+                r"\[first, end\) with 0 <= first < end, got \[10, 5\]"),
+    Case("fit-exclude-frames-not-pairs",
+         setup=run42_copy(scene=scene_value("exclude_frames", "[5, 10]")), args=("fit", "run"),
+         stderr=r"views\.front\.exclude_frames\[0\] must be two integers \[first, end\)"),
+    Case("fit-exclude-frames-floats",
+         setup=run42_copy(scene=scene_value("exclude_frames", "[[5.0, 10]]", "top")),
+         args=("fit", "run"), stderr=r"views\.top\.exclude_frames\[0\] must be two integers"),
+    Case("fit-exclude-frames-outside-the-frames-range",
+         setup=run42_copy(scene=lambda t: scene_value("frames", "[0, 100]")(
+             scene_value("exclude_frames", "[[90, 120]]")(t))), args=("fit", "run"),
+         stderr=r"views\.front\.exclude_frames\[0\] must lie inside frames \[0, 100\), "
+                r"got \[90, 120\]"),
+    Case("fit-exclude-frames-past-the-footage",
+         setup=run42_copy(scene=scene_value("exclude_frames", "[[900, 910]]", "top")),
+         args=("fit", "run"),
+         stderr=r"run 'run42' \(run\), view top: views\.top\.exclude_frames\[0\] = \[900, 910\] "
+                r"holds none of its frames 0\.\.371 in run/top\.avi"),
+    Case("fit-manual-points-missing-file", setup=run42_copy(scene=with_manual()),
+         args=("fit", "run"),
+         stderr=r"run/scene\.toml: views\.front\.manual_points names 'm\.csv', but there is no "
+                r"such file .*expected a CSV frame,u_px,v_px"),
+    Case("fit-manual-points-bad-header",
+         setup=both(run42_copy(scene=with_manual()), manual_csv("frame,u,v\n60,100,50\n")),
+         args=("fit", "run"),
+         stderr=r"views\.front\.manual_points \(m\.csv\) has the header 'frame,u,v', without "
+                r"u_px, v_px; expected a header frame,u_px,v_px"),
+    Case("fit-manual-points-no-rows",
+         setup=both(run42_copy(scene=with_manual()), manual_csv("frame,u_px,v_px\n")),
+         args=("fit", "run"), stderr=r"\(m\.csv\) has a header but no points"),
+    Case("fit-manual-points-frame-not-an-integer",
+         setup=both(run42_copy(scene=with_manual()),
+                    manual_csv("frame,u_px,v_px\n60,100,50\n61.5,101,50\n")),
+         args=("fit", "run"),
+         stderr=r"views\.front\.manual_points \(m\.csv, line 3\) frame must be an integer frame "
+                r"index, got '61\.5'"),
+    Case("fit-manual-points-nan-pixel",
+         setup=both(run42_copy(scene=with_manual()),
+                    manual_csv("frame,u_px,v_px\n60,100,nan\n")),
+         args=("fit", "run"),
+         stderr=r"\(m\.csv, line 2\) v_px must be a finite number \(pixels\), got 'nan'"),
+    Case("fit-manual-points-empty-cell",
+         setup=both(run42_copy(scene=with_manual()), manual_csv("frame,u_px,v_px\n60,,50\n")),
+         args=("fit", "run"),
+         stderr=r"\(m\.csv, line 2\) u_px must be a number \(pixels\), got ''"),
+    Case("fit-manual-points-duplicate-frame",
+         setup=both(run42_copy(scene=with_manual()),
+                    manual_csv("frame,u_px,v_px\n60,100,50\n61,101,50\n60,102,50\n")),
+         args=("fit", "run"),
+         stderr=r"\(m\.csv, line 4\) gives frame 60 again \(first on line 2\); expected one "
+                r"point per frame"),
+    Case("fit-manual-points-frame-past-the-footage",
+         setup=both(run42_copy(scene=with_manual()),
+                    manual_csv("frame,u_px,v_px\n60,100,50\n900,101,50\n")),
+         args=("fit", "run"),
+         stderr=r"run 'run42' \(run\), view front: views\.front\.manual_points \(m\.csv\) has "
+                r"frame 900, which is not among its frames 0\.\.371 in run/front\.avi"),
+    Case("fit-manual-points-in-an-excluded-range",
+         setup=both(run42_copy(scene=lambda t: with_manual()(
+             scene_value("exclude_frames", "[[55, 65]]")(t))),
+             manual_csv("frame,u_px,v_px\n60,100,50\n")),
+         args=("fit", "run"),
+         stderr=r"views\.front\.manual_points \(m\.csv\) has frame 60, which exclude_frames "
+                r"\[55, 65\) takes out"),
+    Case("fit-manual-points-a-folder",
+         setup=both(run42_copy(scene=with_manual("mp")), files({"run/mp/x.csv": "x"})),
+         args=("fit", "run"),
+         stderr=r"views\.front\.manual_points names 'mp', but it is not a file"),
+]
+
+
 # ------------------------------------------------------------------ the runner
 
 def _tree(folder):

@@ -12,7 +12,7 @@ import time
 
 log = logging.getLogger(__name__)
 
-__all__ = ["calibrated_tracks", "DISAGREEMENT_PX"]
+__all__ = ["calibrated_tracks", "triangulate_scene", "DISAGREEMENT_PX"]
 
 #: Median reprojection error (px) above which the calibration and the points are said
 #: to disagree: a calibration that fits its points leaves about a pixel.
@@ -25,6 +25,7 @@ def _view_track(scene, folder, name, settings, quiet):
 
     view = scene.views[name]
     if view.points is None:
+        # the view's target, if any, is passed to the tracker by track_view
         return track_view(scene, folder, name, settings, quiet=quiet)
     import dataclasses
 
@@ -63,7 +64,7 @@ def calibrated_tracks(scene, folder, settings, *, quiet=True, timings=None):
     (dict, vidtrack.world.calibrated.CalibratedWorld)
         The views' tracks and the triangulated world track.
     """
-    from vidtrack.world.calibrated import triangulate_views
+    from vidtrack.run.corrections import correct_tracks
 
     timings = {} if timings is None else timings
     t0 = time.perf_counter()
@@ -71,8 +72,23 @@ def calibrated_tracks(scene, folder, settings, *, quiet=True, timings=None):
     order = sorted(scene.view_names, key=lambda n: scene.views[n].points is None)
     tracks = {n: _view_track(scene, folder, n, settings, quiet) for n in order}
     tracks = {n: tracks[n] for n in scene.view_names}
+    # the scene's exclude_frames and manual_points, before the triangulation
+    tracks = correct_tracks(scene, folder, tracks)
     timings["track"] = time.perf_counter() - t0
     t0 = time.perf_counter()
+    world = triangulate_scene(scene, tracks)
+    timings["merge"] = time.perf_counter() - t0
+    return tracks, world
+
+
+def triangulate_scene(scene, tracks):
+    """The views' tracks triangulated with the scene's cameras (the world track).
+
+    Used on fresh tracks and on the views of a tracks.h5 edited by hand (the world track
+    is rebuilt from them).
+    """
+    from vidtrack.world.calibrated import triangulate_views
+
     views = scene.views
     heights = {n: tr.frame_shape[0] for n, tr in tracks.items()
                if views[n].points is None and views[n].pixel_origin == "bottom-left"}
@@ -81,7 +97,6 @@ def calibrated_tracks(scene, folder, settings, *, quiet=True, timings=None):
         fps={n: v.fps for n, v in views.items()},
         sync={n: v.sync_frame for n, v in views.items()}, image_heights=heights,
         up=scene.world.up, forward=scene.world.forward)
-    timings["merge"] = time.perf_counter() - t0
     if world.median_reprojection_px > DISAGREEMENT_PX:
         import dataclasses
 
@@ -90,4 +105,4 @@ def calibrated_tracks(scene, folder, settings, *, quiet=True, timings=None):
                 f"leaves about 1 px); positions may be off by centimetres")
         log.warning(note)
         world = dataclasses.replace(world, warnings=world.warnings + (note,))
-    return tracks, world
+    return world

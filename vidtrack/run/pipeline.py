@@ -32,7 +32,7 @@ from vidtrack import __version__
 from vidtrack._atomic import write_text
 from vidtrack.run._workers import (ViewProcess, ViewThread, preload_later_stages, source_of,
                                     track_view)
-from vidtrack.errors import DisagreementError, FitError, SceneError
+from vidtrack.errors import DisagreementError, FitError, SceneError, VidtrackError
 from vidtrack.run.cache import STAGES_FILE, Stages, file_digest  # noqa: F401 (STAGES_FILE,
 from vidtrack.run.preflight import OUT_DIR, about, prepare_run  # noqa: F401  OUT_DIR: as before)
 
@@ -187,9 +187,15 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
     Returns the tracks' key, the tracks, the world track, whether they were reused, and
     the worker process that is to draw the report (or None).
     """
+    from vidtrack.run.corrections import corrections_key
+
+    # the scene's hash holds exclude_frames and the manual points file's name; the key
+    # holds that file's content too (this folder's: a throw has its own), so an edited
+    # CSV tracks again
     key = _digest({"version": __version__, "scene": scene.hash, "tracker": TRACKER_SETTINGS,
                    "sources": {n: _file_fingerprint(source_of(v, scene, folder))
-                               for n, v in scene.views.items()}})
+                               for n, v in scene.views.items()},
+                   "corrections": corrections_key(scene, folder)})
     h5 = out_dir / "tracks.h5"
     if not options.force:
         reused = _reused_tracks(scene, out_dir, key, stages, timings, label_of(None))
@@ -209,14 +215,13 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
     else:
         tracks, helper = _track_views(scene, folder, options, timings, workers,
                                       label_of=label_of)
-        from vidtrack.world.orthogonal import merge_tracks
+        from vidtrack.run.corrections import correct_tracks
 
+        # the scene's exclude_frames and manual_points, before the merge
+        with about(label_of(None)):
+            tracks = correct_tracks(scene, folder, tracks)
         t0 = time.perf_counter()
-        mappings = {n: v.mapping() for n, v in scene.views.items()}
-        world = merge_tracks(tracks, mappings,
-                             sync={n: v.sync_frame for n, v in scene.views.items()})
-        # the merge flags each view's frames before its t = 0 and carries the release over
-        tracks = world.tracks or tracks
+        tracks, world = _merged(scene, tracks)
         timings["merge"] = time.perf_counter() - t0
         if helper is not None:
             helper.send_tracks({n: tr.data for n, tr in tracks.items()})
@@ -225,6 +230,22 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
     _write_tables(scene, out_dir, tracks, world)
     stages.record("tracks", key, TRACKS_FILES)
     return key, tracks, world, False, helper
+
+
+def _merged(scene, tracks):
+    """(tracks, world): the views' tracks merged into the world track (orthogonal views)
+    or triangulated (calibrated cameras). From fresh tracks, and from the views of a
+    tracks.h5 edited by hand (the world track is always rebuilt from its views)."""
+    if scene.calibrated:
+        from vidtrack.run.calibrated import triangulate_scene
+
+        return tracks, triangulate_scene(scene, tracks)
+    from vidtrack.world.orthogonal import merge_tracks
+
+    mappings = {n: v.mapping() for n, v in scene.views.items()}
+    world = merge_tracks(tracks, mappings, sync={n: v.sync_frame for n, v in scene.views.items()})
+    # the merge flags each view's frames before its t = 0 and carries the release over
+    return world.tracks or tracks, world
 
 
 def _write_tables(scene, out_dir, tracks, world):
@@ -244,11 +265,15 @@ def _reused_tracks(scene, out_dir, key, stages, timings, label):
 
     Reused: tracks.h5 is the file the stage recorded (its sha256), or it was changed
     after it was written but reads back whole (HDF5 checksums, every dataset and
-    attribute) for this scene: a track edited by hand (flags set, points removed) is
-    used as edited, said in a note; the fit is then computed again (its key holds
-    tracks.h5's digest). A file damaged on disk fails to read back and is tracked
-    again. tracks.csv and world.csv are written again from tracks.h5 unless they are
-    the files recorded.
+    attribute) for this scene: a view's track edited by hand (flags set, points moved
+    or set to NaN) counts. The world track is then rebuilt from the edited views (the
+    merge, or the triangulation, run again: a frame flagged by hand leaves the world
+    track and the fit), tracks.h5 is written again with it and recorded, said in a
+    note. When the views are as written (the root attribute ``views_sha256``) the edit
+    is elsewhere, /world edited itself: it is used as edited. The fit is then computed
+    again (its key holds tracks.h5's digest). A file damaged on disk
+    fails to read back and is tracked again. tracks.csv and world.csv are written again
+    from tracks.h5 unless they are the files recorded.
     """
     from vidtrack.run.tracks_file import read_tracks
 
@@ -274,9 +299,34 @@ def _reused_tracks(scene, out_dir, key, stages, timings, label):
         if tf.scene_hash != scene.hash:
             _note(f"{label}: {why}, for another scene; tracking again")
             return None
-        _note(f"{label}: {why}, and reads back whole: using it as edited (--force "
-              "tracks again)")
+        from vidtrack.run.tracks_file import views_digest
+
+        if tf.views_sha256 is not None and views_digest(tf.tracks) == tf.views_sha256:
+            # the views are as written: the edit is elsewhere (/world): used as edited
+            _note(f"{label}: {why}, and reads back whole: using it as edited (its views "
+                  "are as written; --force tracks again)")
+            return _edited_tables(scene, out_dir, key, stages, timings, t0, tf)
+        try:
+            tracks, world = _merged(scene, tf.tracks)
+        except (VidtrackError, ValueError, KeyError) as exc:
+            raise SceneError(f"{h5} was edited by hand and its views no longer give a world "
+                             f"track ({exc}); undo the edit, or run again with --force to "
+                             "track again (scene.toml's exclude_frames and manual_points "
+                             "correct the tracker without editing tracks.h5)") from None
+        _note(f"{label}: {why}, and reads back whole: using it as edited, the world track "
+              "rebuilt from its edited views (--force tracks again)")
+        from vidtrack.run.tracks_file import write_tracks
+
+        write_tracks(h5, tracks, world, scene_hash=tf.scene_hash, calibration=tf.calibration)
+        tf = dataclasses.replace(tf, tracks=tracks, world=world)
         edited = True
+    return _edited_tables(scene, out_dir, key, stages, timings, t0, tf, edited=edited,
+                          label=label)
+
+
+def _edited_tables(scene, out_dir, key, stages, timings, t0, tf, *, edited=True, label=""):
+    """The tables of a reused tracks.h5 written again where stale (or edited), the stage
+    recorded; returns (tracks, world)."""
     stale = [n for n in TABLE_FILES if not stages.file_matches("tracks", n)]
     if edited or stale:
         # tracks.csv and world.csv belong to this stage: written again from the tracks
@@ -451,7 +501,8 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
     record = throw_record(scene, fit, timings_s=timings, extra=extra)
     pages = None
     if options.report:
-        pages = _render_report(record, fit, world, tracks, helper, timings)
+        pages = _render_report(record, fit, world, tracks, helper, timings,
+                               scene=scene, folder=folder)
     timings["total"] = time.perf_counter() - t_start
     record["timings_s"] = {k: round(float(v), 6) for k, v in timings.items()}
     record["fitted_at"] = utc_now()
@@ -463,20 +514,44 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
     return record
 
 
-def _render_report(record, fit, world, tracks, helper, timings):
-    """report.md and report.html as text (written after fit.json)."""
-    from vidtrack.report.run_page import render_html, render_markdown
+def _render_report(record, fit, world, tracks, helper, timings, *, scene=None, folder=None):
+    """report.md and report.html as text (written after fit.json).
+
+    With ``scene`` and ``folder`` the page has the contact sheet (crops of the footage,
+    read and drawn here while the helper draws the plots)."""
+    from vidtrack.report.run_page import render_html, render_markdown, with_contact_sheet
 
     t0 = time.perf_counter()
     # drawn by the process that tracked the second view, if it is there (it loaded
     # matplotlib and drew the tracks plot while this one fitted)
     html = helper.render(record, fit=fit, world=world.data) if helper else None
+    sheet = _contact_sheet(scene, folder, record, fit, world, tracks) if scene else None
     if html is None:
         html = render_html(record, fit=fit, world=world.data,
-                           views={n: tr.data for n, tr in tracks.items()})
+                           views={n: tr.data for n, tr in tracks.items()},
+                           contact_sheet=sheet)
+    elif sheet is not None:
+        html = with_contact_sheet(html, sheet)
     pages = {"report.md": render_markdown(record), "report.html": html}
     timings["report"] = time.perf_counter() - t0
     return pages
+
+
+def _contact_sheet(scene, folder, record, fit, world, tracks):
+    """The report's contact-sheet section; a failure to draw it is said in its place."""
+    from vidtrack.report import _html
+    from vidtrack.report.contact_sheet import contact_sheet_html
+    from vidtrack.report.view_path import view_paths
+
+    try:
+        paths = view_paths(scene, record, world.data, positions=fit.predict,
+                           frame_shapes={n: tr.frame_shape for n, tr in tracks.items()})
+        return contact_sheet_html(scene, folder, {n: tr.data for n, tr in tracks.items()},
+                                  paths)
+    except Exception as exc:     # noqa: BLE001 (the report stands without its crops)
+        log.warning("the contact sheet could not be drawn: %s: %s", type(exc).__name__, exc)
+        return (f'<h2>Contact sheet</h2><p class="note">Not drawn: '
+                f"{_html.esc(type(exc).__name__)}: {_html.esc(exc)}</p>")
 
 
 def _stop_workers(workers):

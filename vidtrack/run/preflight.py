@@ -7,8 +7,11 @@ until the sources pass and nothing tracked until everything passes:
    refused before anything opens it: reading one blocks or never ends);
 2. no two views read the same footage (a cross-check: ``accept_disagreement`` lets it
    through as a warning);
-3. every source opens, its frame range is noted when clipped at the end, and a
-   ``sync_frame`` lies among the frames used;
+3. every source opens, its frame range is noted when clipped at the end, a
+   ``sync_frame`` lies among the frames used, and so do the frames of a view's
+   corrections (an ``exclude_frames`` range holds some of them, every manual point's
+   frame is one of them; the manual points file is read and checked for each run or
+   throw folder before any source is opened);
 4. the outputs can be written: ``<run>/vidtrack/`` (and each throw's folder in it) is a
    folder or can be made one, a probe file can be created and removed there (a folder
    made for the probe is removed again), and no output name (fit.json, tracks.h5, ...)
@@ -189,8 +192,9 @@ def _source_of(view, scene, folder):
     return view.source if Path(folder) == scene.folder else view.source_in(folder)
 
 
-def _open_and_check(view, path, label):
-    """Open a view's footage: its frame count, a clipped range, the sync frame."""
+def _open_and_check(view, path, label, *, scene=None, folder=None):
+    """Open a view's footage: its frame count, a clipped range, the sync frame, and the
+    frames of its corrections (excluded ranges, manual points)."""
     from vidtrack.footage import open_source
 
     notes = []
@@ -210,6 +214,10 @@ def _open_and_check(view, path, label):
                         f"its {len(src)} frames, 0..{last}")
                 raise SceneError(f"views.{view.name}.sync_frame = {int(sync)} is not among "
                                  f"{used} in {path}; expected a frame of the footage")
+        if scene is not None:
+            from vidtrack.run.corrections import check_in_footage
+
+            check_in_footage(scene, folder, view.name, first, last, path)
     return notes
 
 
@@ -224,6 +232,11 @@ def _check_folder_sources(scene, folder, label_of, *, open_sources=True):
         key = "points" if getattr(view, "points", None) is not None else "source"
         with about(label_of(name), view=name):
             check_source_path(path, f"views.{name}.{key}")
+            if getattr(view, "manual_points_text", None) is not None:
+                # read and checked per folder: a throw has a file of its own
+                from vidtrack.run.corrections import view_corrections
+
+                view_corrections(scene, folder, name)
         paths[name] = path
     findings = []
     same = same_footage({n: p for n, p in paths.items()
@@ -238,7 +251,8 @@ def _check_folder_sources(scene, folder, label_of, *, open_sources=True):
                 continue                       # points digitized elsewhere, not footage
             with about(label_of(name), view=name):
                 notes += [f"{name}: {n}" for n in
-                          _open_and_check(view, paths[name], label_of(name))]
+                          _open_and_check(view, paths[name], label_of(name), scene=scene,
+                                          folder=folder)]
     return findings, notes
 
 

@@ -3,9 +3,11 @@
 Layout (HDF5, written with h5py, whole or not at all)::
 
     /                 attrs: vidtrack_version, scene_hash, calibration (JSON text),
-                             schema (1), flags (JSON: bit value -> name)
+                             schema (1), flags (JSON: bit value -> name),
+                             views_sha256 (the views' values as written: views_digest)
     /front, /top      datasets (one value per frame): frame (int64), t_s, u_px, v_px,
-                      area_px, angle_rad, length_px (float64), flags (int32)
+                      area_px, angle_rad, length_px (float64), flags (int32),
+                      manual (uint8 0/1; only in a view with points placed by hand)
                       attrs: release_frame (-1: none), release_t_s (NaN: none),
                              release_note, fps, frame_shape, noise_sigma, k_sigma,
                              straw_level, scatter_px, notes (JSON)
@@ -57,6 +59,9 @@ TRACKS_CSV = "tracks.csv"
 WORLD_CSV = "world.csv"
 # tracks.csv's leading columns; the view's other datasets follow, then flag_names
 _TRACKS_CSV_FIRST = ("view", "frame", "t_s", "u_px", "v_px", "flags")
+#: A view's boolean column (dataset, in tracks.h5 as 0/1) of points placed by hand; only
+#: in a view that has some (vidtrack.track.corrections).
+_MANUAL = "manual"
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,6 +87,7 @@ class TracksFile:
     scene_hash: str
     calibration: object
     path: Path
+    views_sha256: str | None = None
 
     def to_dict(self):
         """A JSON-ready summary."""
@@ -139,6 +145,25 @@ def _check_tracks(tracks, label, *, calibrated=False):
             raise TrackError(f"{label}: the {v} track lacks columns {missing}")
 
 
+def views_digest(tracks):
+    """sha256 of the views' per-frame values (frame, the floats, flags, manual), in view
+    order: stored as the root attribute ``views_sha256``, so that a later reader can tell
+    a view edited by hand from an edit elsewhere in the file."""
+    import hashlib
+
+    from vidtrack.track.tracker import TRACK_COLUMNS
+
+    h = hashlib.sha256()
+    for v in _view_order(tracks):
+        d = tracks[v].data
+        h.update(v.encode())
+        for c in TRACK_COLUMNS + ((_MANUAL,) if _MANUAL in d else ()):
+            dtype = {"frame": np.int64, "flags": np.int32, _MANUAL: np.uint8}.get(c, np.float64)
+            h.update(c.encode())
+            h.update(np.ascontiguousarray(d[c].to_numpy(dtype=dtype)).tobytes())
+    return h.hexdigest()
+
+
 def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
     """Write ``tracks.h5`` atomically.
 
@@ -186,6 +211,7 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
             h.attrs["calibration"] = _json(calibration)
             h.attrs["flags"] = _json({str(k): v for k, v in FLAGS.items()})
             h.attrs["views"] = _json(_view_order(tracks))
+            h.attrs["views_sha256"] = views_digest(tracks)
             for v in _view_order(tracks):
                 tr = tracks[v]
                 g = h.create_group(v)
@@ -194,6 +220,9 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
                 for c in _FLOAT_COLS:
                     _dataset(g, c, d[c].to_numpy(dtype=np.float64))
                 _dataset(g, "flags", d["flags"].to_numpy(dtype=np.int32))
+                if _MANUAL in d:
+                    # points placed by hand (flags 0): only a view that has them
+                    _dataset(g, _MANUAL, d[_MANUAL].to_numpy(dtype=np.uint8))
                 g.attrs["release_frame"] = -1 if tr.release_frame is None else int(
                     tr.release_frame)
                 g.attrs["release_t_s"] = _num(tr.release_t_s)
@@ -289,10 +318,12 @@ def read_tracks(path):
                 if c not in g:
                     raise TrackError(f"{path}: /{v} has no dataset {c!r}")
                 cols[c] = g[c][()]
+            if _MANUAL in g:
+                cols[_MANUAL] = g[_MANUAL][()].astype(bool)
             n = {c: len(a) for c, a in cols.items()}
             if len(set(n.values())) != 1:
                 raise TrackError(f"{path}: /{v} datasets differ in length: {n}")
-            data = pd.DataFrame({c: cols[c] for c in TRACK_COLUMNS})
+            data = pd.DataFrame(cols)
             rel = int(_attr(g, "release_frame", path, f"/{v}"))
             tracks[v] = Track(
                 data=data, view=v, release_frame=None if rel < 0 else rel,
@@ -324,8 +355,12 @@ def read_tracks(path):
                 x_rms_px=_none_if_nan(_attr(g, "x_rms_px", path, "/world")),
                 x_points=int(_attr(g, "x_points", path, "/world")),
                 warnings=tuple(json.loads(_attr(g, "warnings", path, "/world"))))
+        stored = h.attrs.get("views_sha256")
+        if isinstance(stored, bytes):
+            stored = stored.decode("utf-8")
     return TracksFile(tracks=tracks, world=world, vidtrack_version=version,
-                      scene_hash=scene_hash, calibration=calibration, path=path)
+                      scene_hash=scene_hash, calibration=calibration, path=path,
+                      views_sha256=None if stored is None else str(stored))
 
 
 def _read_calibrated(g, path):
@@ -371,7 +406,8 @@ def tracks_table(tracks, *, calibrated=False):
     pandas.DataFrame
         One row per view and frame: ``view``, ``frame``, ``t_s``, ``u_px``, ``v_px``,
         ``flags``, the other columns that tracks.h5 keeps for a view (``area_px``,
-        ``angle_rad``, ``length_px``), and ``flag_names`` (the set bits' names in
+        ``angle_rad``, ``length_px``), ``manual`` (1: a point placed by hand; only
+        when a view has such points), and ``flag_names`` (the set bits' names in
         upper case, in bit order, joined by ``|``, e.g. ``MERGED|PRE_RELEASE``; empty
         when unflagged).
 
@@ -384,8 +420,10 @@ def tracks_table(tracks, *, calibrated=False):
     from vidtrack.track.tracker import TRACK_COLUMNS
 
     _check_tracks(tracks, TRACKS_CSV, calibrated=calibrated)
+    manual = any(_MANUAL in tracks[v].data for v in tracks)
     columns = list(_TRACKS_CSV_FIRST) + [c for c in TRACK_COLUMNS
-                                         if c not in _TRACKS_CSV_FIRST] + ["flag_names"]
+                                         if c not in _TRACKS_CSV_FIRST]
+    columns += [_MANUAL] * manual + ["flag_names"]
     parts = []
     for v in _view_order(tracks):
         d = tracks[v].data
@@ -394,6 +432,9 @@ def tracks_table(tracks, *, calibrated=False):
                 "flags": d["flags"].to_numpy(dtype=np.int32)}
         for c in _FLOAT_COLS:
             part[c] = d[c].to_numpy(dtype=np.float64)
+        if manual:
+            part[_MANUAL] = (d[_MANUAL].to_numpy(dtype=np.uint8) if _MANUAL in d
+                             else np.zeros(len(d), dtype=np.uint8))
         part["flag_names"] = _flag_names(part["flags"])
         parts.append(pd.DataFrame(part, columns=columns))
     if not parts:

@@ -35,7 +35,8 @@ POINT_FORMATS = ("dltdv", "tracker", "csv")
 
 #: Keys of a calibrated view's table.
 CAMERA_VIEW_KEYS = ("source", "points", "fps", "dlt", "projection", "intrinsics", "distortion",
-                    "calibration", "pixel_origin", "frames", "sync_frame")
+                    "calibration", "pixel_origin", "frames", "sync_frame", "target",
+                    "exclude_frames", "manual_points")
 _POINT_KEYS = ("file", "format", "camera", "point")
 
 
@@ -98,6 +99,13 @@ class CameraView:
     pixel_origin : str
     frames : tuple of int or None
     sync_frame : int or str
+    target : (int, (float, float)) or None
+        As for the orthogonal views: the object at that pixel of that frame (footage
+        only; a view that gives points is not tracked).
+    exclude_frames : tuple of (int, int)
+        Half-open frame ranges never used (flagged EXCLUDED).
+    manual_points, manual_points_text : pathlib.Path or None, str or None
+        Points placed by hand (CSV ``frame,u_px,v_px``), in the view's own pixels.
     """
 
     name: str
@@ -111,10 +119,21 @@ class CameraView:
     frames: tuple | None = None
     sync_frame: object = "auto"
     calibration: Path | None = None
+    target: tuple | None = None
+    exclude_frames: tuple = ()
+    manual_points: Path | None = None
+    manual_points_text: str | None = None
 
     def source_in(self, folder):
         """The source of this view inside ``folder`` (a throw's subfolder)."""
         return Path(folder) / self.source_text
+
+    def manual_points_in(self, folder):
+        """The manual points file for the run or throw folder ``folder`` (None: none)."""
+        if self.manual_points_text is None:
+            return None
+        p = Path(self.manual_points_text)
+        return p if p.is_absolute() else Path(folder) / p
 
     def to_dict(self):
         """The ``[views.NAME]`` table as it would be written."""
@@ -125,6 +144,12 @@ class CameraView:
         if self.frames is not None:
             out["frames"] = list(self.frames)
         out["sync_frame"] = self.sync_frame
+        if self.target is not None:
+            out["target"] = {"frame": self.target[0], "at_px": list(self.target[1])}
+        if self.exclude_frames:
+            out["exclude_frames"] = [list(r) for r in self.exclude_frames]
+        if self.manual_points_text is not None:
+            out["manual_points"] = self.manual_points_text
         return out
 
 
@@ -281,8 +306,18 @@ def parse_camera_view(ck, name, view, folder, *, fps_range, frames_and_sync):
     except InputError as exc:
         ck.fail(path, str(exc).removeprefix(f"{name}: "))
     frames, sync = frames_and_sync(ck, view, path)
+    from vidtrack.scene.corrections import parse_exclude, parse_manual_points, parse_target
+
+    target = parse_target(ck, view, path, frames)
+    if target is not None and points is not None:
+        ck.fail(f"{path}.target", "goes with source (footage to track), not points: a view "
+                "that gives points is not tracked")
+    exclude = parse_exclude(ck, view, path, frames)
+    manual, manual_text = parse_manual_points(ck, view, path, folder, frames, exclude)
     source = (points.file if points else
               (_resolve(folder, source_text) if folder is not None else Path(source_text)))
     return CameraView(name=name, source=source, source_text=source_text, points=points,
                       fps=fps, camera=camera, model=model, pixel_origin=origin, frames=frames,
-                      sync_frame=sync, calibration=calib)
+                      sync_frame=sync, calibration=calib, target=target,
+                      exclude_frames=exclude, manual_points=manual,
+                      manual_points_text=manual_text)

@@ -39,7 +39,8 @@ CAMERA_DISTANCE_RANGE_M = (0.01, 1e5)
 
 _TOP_KEYS = ("schema", "run", "factors", "physics", "straw", "machine", "world", "views")
 _VIEW_KEYS = ("source", "fps", "axes", "origin_px", "ruler", "m_per_px", "calibration",
-              "camera_distance_m", "frames", "sync_frame", "target")
+              "camera_distance_m", "frames", "sync_frame", "target", "exclude_frames",
+              "manual_points")
 
 
 # --------------------------------------------------------------------------- results
@@ -185,6 +186,15 @@ class ViewSpec:
         ``(frame, (u_px, v_px))``: the object to track is the moving one at that pixel
         of that 0-based file frame (``target = { frame = F, at_px = [u, v] }``); it is
         followed forwards and backwards from there. None: found automatically.
+    exclude_frames : tuple of (int, int)
+        Half-open ranges ``(first, end)`` of file frames never fitted: flagged EXCLUDED
+        after tracking (docs/scene.md, "Correcting the tracker").
+    manual_points : pathlib.Path or None
+        A CSV ``frame,u_px,v_px`` of points placed by hand (resolved against the run
+        folder; a throw's is :meth:`manual_points_in`): they replace the tracker's point
+        in those frames and are fitted.
+    manual_points_text : str or None
+        ``manual_points`` as written.
     """
 
     name: str
@@ -203,6 +213,16 @@ class ViewSpec:
     sync_frame: object = "auto"
     camera_distance_m: float | None = None
     target: tuple | None = None
+    exclude_frames: tuple = ()
+    manual_points: Path | None = None
+    manual_points_text: str | None = None
+
+    def manual_points_in(self, folder):
+        """The manual points file for the run or throw folder ``folder`` (None: none)."""
+        if self.manual_points_text is None:
+            return None
+        p = Path(self.manual_points_text)
+        return p if p.is_absolute() else Path(folder) / p
 
     @property
     def m_per_px(self):
@@ -254,6 +274,10 @@ class ViewSpec:
         out["sync_frame"] = self.sync_frame
         if self.target is not None:
             out["target"] = {"frame": self.target[0], "at_px": list(self.target[1])}
+        if self.exclude_frames:
+            out["exclude_frames"] = [list(r) for r in self.exclude_frames]
+        if self.manual_points_text is not None:
+            out["manual_points"] = self.manual_points_text
         return out
 
 

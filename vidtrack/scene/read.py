@@ -22,6 +22,7 @@ from calibration.scale import M_PER_PX_RANGE
 from calibration.views import parse_axes
 from vidtrack.errors import SceneError
 from vidtrack.scene.cameras import parse_camera_view, parse_world
+from vidtrack.scene.corrections import parse_exclude, parse_manual_points, parse_target
 from vidtrack.scene._check import (
     _canonical_hash,
     _Checker,
@@ -181,29 +182,8 @@ def _frames_and_sync(ck, view, path):
 
 
 def _parse_target(ck, view, path, frames):
-    """A view's ``target = { frame = F, at_px = [u, v] }`` as ``(F, (u, v))``, or None."""
-    if "target" not in view:
-        return None
-    tp = f"{path}.target"
-    t = view["target"]
-    if not isinstance(t, dict):
-        ck.fail(tp, "must be a table { frame = F, at_px = [u, v] }: the object's pixel in "
-                f"one frame, got {_type_name(t)} {_show(t)}")
-    ck.keys(t, ("frame", "at_px"), tp)
-    if "frame" not in t:
-        ck.fail(f"{tp}.frame", "is required: the 0-based frame index where at_px is the "
-                "object's pixel")
-    frame = t["frame"]
-    if isinstance(frame, bool) or not isinstance(frame, int):
-        ck.fail(f"{tp}.frame", f"must be a frame index (an integer >= 0), got "
-                f"{_type_name(frame)} {_show(frame)}")
-    if frame < 0:
-        ck.fail(f"{tp}.frame", f"must be >= 0 (a 0-based frame index), got {frame}")
-    if frames is not None and not frames[0] <= frame < frames[1]:
-        ck.fail(f"{tp}.frame", f"must be inside frames [{frames[0]}, {frames[1]}), got {frame}")
-    at = ck.pair(t, "at_px", f"{tp}.at_px", required=True,
-                 what="[u, v]: the object's pixel (column, row) in that frame")
-    return frame, at
+    """A view's ``target`` (:func:`vidtrack.scene.corrections.parse_target`)."""
+    return parse_target(ck, view, path, frames)
 
 
 def _parse_view(ck, name, view, folder):
@@ -236,12 +216,15 @@ def _parse_view(ck, name, view, folder):
 
     frames, sync = _frames_and_sync(ck, view, path)
     target = _parse_target(ck, view, path, frames)
+    exclude = parse_exclude(ck, view, path, frames)
+    manual, manual_text = parse_manual_points(ck, view, path, folder, frames, exclude)
     source = _resolve(folder, source_text) if folder is not None else Path(source_text)
     return ViewSpec(name=name, source=source, source_text=source_text, fps=fps, axes=axes,
                     origin_px=origin, scale=scale, ruler=ruler, m_per_px_given=m_given,
                     calibration=calib_path, calibration_text=calib_text, camera=camera,
                     frames=frames, sync_frame=sync, camera_distance_m=distance,
-                    target=target)
+                    target=target, exclude_frames=exclude, manual_points=manual,
+                    manual_points_text=manual_text)
 
 
 def _example_axes(name):
