@@ -360,7 +360,7 @@ def test_bad_options_and_background_size(tmp_path):
 def test_flag_names():
     assert describe_flags(0) == ()
     assert describe_flags(BORDER | LOST) == ("border", "lost")
-    assert sorted(FLAGS) == [1, 2, 4, 8, 16, 32, 64, 128]
+    assert sorted(FLAGS) == [1, 2, 4, 8, 16, 32, 64, 128, 256]
 
 
 def test_bench_track_quick_writes_table_and_plot(tmp_path):

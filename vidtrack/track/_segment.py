@@ -76,6 +76,8 @@ class Blob:
     merged: bool = False  # touches a moving object of the other polarity
     contrast: float = np.nan  # typical |f - b| of its pixels (90th percentile)
     edge_w: float = np.nan    # contrast / steepest gradient of f - b at its edge (px)
+    edge_w_alone: float = np.nan  # the same without the edges of what touches it in the
+    # other polarity (a shadow's own penumbra, not the straw's edge beside it)
     silhouette: tuple = None  # (u, v, area, angle, length, width) by its silhouette
     off_axis: float = 0.0     # a rod's coverage share beyond its band (another across it)
     core: int = 0             # its fully covered pixels, read by one grey level
@@ -384,6 +386,21 @@ def read_level(region, blob):
     return float(np.median(f[top]))
 
 
+def other_touching(work, *, width, min_area):
+    """Something of the other polarity touches the straw: solid (it survives a 3 x 3
+    opening) and reaching beyond the 2-pixel seam where compression rings round the
+    straw's edges (a halo is not an object)."""
+    sel = work.sel
+    opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
+    hug = cv2.dilate(sel, _K5)
+    if np.count_nonzero(hug & opp) < min_area:
+        return False
+    k = 2 * int(math.ceil(max(width or 1.0, 1.0))) + 3
+    kernel = np.ones((k + 4, k + 4), np.uint8)
+    solid = cv2.morphologyEx(opp, cv2.MORPH_OPEN, _K3)
+    return np.count_nonzero(cv2.dilate(sel, kernel) & ~hug & solid) >= min_area
+
+
 def other_behind(work, level, *, width, min_area):
     """Take a moving object of the other polarity touching the straw as its background.
 
@@ -398,18 +415,11 @@ def other_behind(work, level, *, width, min_area):
     bool
         True when such an object touches the straw (the frame is then flagged).
     """
+    if not other_touching(work, width=width, min_area=min_area):
+        return False
     sel = work.sel
     opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
-    hug = cv2.dilate(sel, _K5)
-    if np.count_nonzero(hug & opp) < min_area:
-        return False
     k = 2 * int(math.ceil(max(width or 1.0, 1.0))) + 3
-    kernel = np.ones((k + 4, k + 4), np.uint8)
-    # an object is solid (survives a 3 x 3 opening) and reaches beyond the 2-pixel seam
-    # where compression rings round the straw's edges: a halo is not an object
-    solid = cv2.morphologyEx(opp, cv2.MORPH_OPEN, _K3)
-    if np.count_nonzero(cv2.dilate(sel, kernel) & ~hug & solid) < min_area:
-        return False
     kernel = np.ones((k, k), np.uint8)
     near = cv2.dilate(sel, kernel).view(bool)
     obj = opp.view(bool) & near
@@ -423,6 +433,44 @@ def other_behind(work, level, *, width, min_area):
     work.d = work.f - b
     work.den = np.float32(level) - b
     return True
+
+
+def shade_background(work):
+    """Take a shadow beside the straw into its background (in place, in ``work``).
+
+    A shadow darkens the static background by a factor that varies smoothly (its
+    penumbra), also under the straw's edge on that side, where the straw's coverage is
+    read. The factor ``f / b`` is read off the shadow's pixels beside the straw (changed
+    away from the straw's level) and carried 2 px further by normalised 3 x 3
+    averages, under the straw's edge; there the background becomes ``b`` times it.
+    Returns the number of pixels whose background changed.
+    """
+    opp = (work.d * work.den < 0) & (np.abs(work.d) > work.t)
+    near = cv2.dilate(work.sel, np.ones((9, 9), np.uint8)).view(bool)
+    shade = opp & near
+    if not shade.any():
+        return 0
+    b = work.b
+    ratio = np.ones_like(b)
+    np.divide(work.f, b, out=ratio, where=shade & (b > 0))
+    w = shade.astype(np.float32)
+    rw = ratio * w
+    known = shade.copy()
+    for _ in range(2):
+        num = cv2.blur(rw, (3, 3), borderType=cv2.BORDER_CONSTANT)
+        cnt = cv2.blur(w, (3, 3), borderType=cv2.BORDER_CONSTANT)
+        got = ~known & (cnt > 0)
+        ratio[got] = num[got] / cnt[got]
+        w[got] = 1.0
+        known |= got
+        rw = ratio * w
+    b2 = b.copy()
+    b2[known] = b[known] * ratio[known]
+    work.b = b2
+    work.d = work.f - b2
+    level = work.den + b          # the straw's level (den = level - b)
+    work.den = level - b2
+    return int(np.count_nonzero(known))
 
 
 def _axis(c):
@@ -621,8 +669,11 @@ def _off_axis(c, m, ang):
     return float(w[mid & (across > band)].sum() / total)
 
 
-def edge_stats(work, mask=None):
+def edge_stats(work, mask=None, *, alone=False):
     """Contrast and edge width of the detected pixels of ``work`` (for shadows).
+
+    With ``alone``, the edges of anything of the other polarity touching them are left
+    out (a shadow's ring holds the sharp edge of the bright straw beside it).
 
     Returns
     -------
@@ -640,6 +691,13 @@ def edge_stats(work, mask=None):
     gx = cv2.Sobel(work.d, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)
     gy = cv2.Sobel(work.d, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)
     ring = cv2.dilate(sel.view(np.uint8), _K3).view(bool)
+    side = np.float32(np.sign(np.median(work.d[sel])) or 1.0)
+    other = ((work.d * side) < -work.t).view(np.uint8) if np.ndim(work.t) else \
+        ((work.d * side) < -np.float32(work.t)).view(np.uint8)
+    if alone and other.any():
+        ring &= ~cv2.dilate(other, _K5).view(bool)
+        if not ring.any():
+            return contrast, np.nan
     g = float(np.percentile(cv2.magnitude(gx, gy)[ring], 90))
     return contrast, contrast / max(g, 1e-6)
 

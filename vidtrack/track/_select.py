@@ -214,9 +214,10 @@ class Tracklet:
         return self.area_ratio() <= 2.0
 
     def sharpness(self, n=6):
-        """(contrast, edge width) medians over the last ``n`` blobs (NaN if unknown)."""
+        """(contrast, edge width) medians over the last ``n`` blobs (NaN if unknown); the
+        edge width without what touches a blob in the other polarity."""
         c = [b.contrast for b in self.blobs[-n:] if np.isfinite(b.contrast)]
-        w = [b.edge_w for b in self.blobs[-n:] if np.isfinite(b.edge_w)]
+        w = [b.edge_w_alone for b in self.blobs[-n:] if np.isfinite(b.edge_w_alone)]
         return (float(np.median(c)) if c else np.nan, float(np.median(w)) if w else np.nan)
 
     def describe(self, origin=0):
@@ -306,6 +307,7 @@ def _merged_blob(a, b):
     m.touches_border = a.touches_border or b.touches_border
     m.contrast = np.nanmax([a.contrast, b.contrast])
     m.edge_w = np.nanmin([a.edge_w, b.edge_w])
+    m.edge_w_alone = np.nanmin([a.edge_w_alone, b.edge_w_alone])
     return m
 
 
@@ -343,8 +345,12 @@ def _shadow_like(a, b):
     its area is 0.4 to 2.5 times ``b``'s and its edges are at least 1.6 times as wide as
     ``b``'s, or its contrast is below half of ``b``'s while its edges are no sharper.
     """
-    if _inside(a.blobs[-1], b.blobs[-1]) or _inside(b.blobs[-1], a.blobs[-1]):
-        return False       # one holds the other: a highlight on a ball, not a copy
+    ab, bb = a.blobs[-1], b.blobs[-1]
+    if ((_inside(ab, bb) or _inside(bb, ab))
+            and np.hypot(ab.u - bb.u, ab.v - bb.v) < 0.25 * np.sqrt(max(ab.mask_area,
+                                                                       bb.mask_area))):
+        return False       # one holds the other, centred: a highlight on a ball, not a
+        # copy (a blurred shadow's box may hold a thin rod's: it lies beside it)
     ratio = a.blobs[-1].mask_area / max(b.blobs[-1].mask_area, 1)
     if not 0.4 <= ratio <= 2.5:
         return False       # a shadow or a reflection is a copy of the object's size
@@ -472,6 +478,11 @@ class Acquirer:
             # the one thing moving, keeping its size (a hand throwing changes shape)
             return ready[0]
         flying = [tr for tr in ready if tr.flying() and not self._part(tr, ready)]
+        # the shadow or reflection of a steady candidate beside it is not taken, even
+        # when its path is the smoother (the object itself still rides a blade)
+        flying = [tr for tr in flying
+                  if not any(q is not tr and _co_moving(tr, q) and _shadow_like(tr, q)
+                             for q in ready)]
         if not flying:
             return None
         flying = self._distinct(flying)

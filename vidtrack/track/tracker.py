@@ -54,7 +54,14 @@ value   name             meaning
 64      OUTLIER          off the smooth path of its clean neighbours
 128     APPEARANCE       unlike the object's clean frames (part of it hidden, or two
                          grey levels where it has one): not measured as the object
+256     EXCLUDED         in a range of the scene's ``exclude_frames``: never fitted (set
+                         after tracking, :mod:`vidtrack.track.corrections`)
 ======  ===============  ===========================================================
+
+A point placed by hand (the scene's ``manual_points``) replaces the tracker's in its
+frame with flags 0 (usable, as any clean frame) and is marked in a boolean column
+``manual`` that the track then has (:mod:`vidtrack.track.corrections`); a track without
+manual points has no such column.
 """
 
 import copy
@@ -71,8 +78,8 @@ import numpy as np
 from vidtrack.track import _refine
 from vidtrack._progress import progress
 from vidtrack.track._segment import (Segmenter, edge_stats, measure, measure_silhouette,
-                                     measure_solid, other_behind, read_level, trim_attached,
-                                     work_margin)
+                                     measure_solid, other_behind, other_touching, read_level,
+                                     shade_background, trim_attached, work_margin)
 from vidtrack.track._select import Acquirer, Intruders, Predictor, Tracklet
 from vidtrack.track.background import Background, estimate_background, sample_indices
 from vidtrack.errors import TrackError
@@ -83,7 +90,7 @@ if TYPE_CHECKING:
     import pandas
 
 __all__ = ["Track", "track", "track_parts", "FLAGS", "BORDER", "BLADE", "MERGED", "LOST",
-           "PREDICTED", "PRE_RELEASE", "OUTLIER", "APPEARANCE", "TRACK_COLUMNS",
+           "PREDICTED", "PRE_RELEASE", "OUTLIER", "APPEARANCE", "EXCLUDED", "TRACK_COLUMNS",
            "describe_flags"]
 
 BORDER = 1
@@ -94,11 +101,12 @@ PREDICTED = 16
 PRE_RELEASE = 32
 OUTLIER = 64
 APPEARANCE = 128
+EXCLUDED = 256
 
 #: Flag names by bit value.
 FLAGS = {BORDER: "border", BLADE: "blade", MERGED: "merged", LOST: "lost",
          PREDICTED: "predicted", PRE_RELEASE: "pre_release", OUTLIER: "outlier",
-         APPEARANCE: "appearance"}
+         APPEARANCE: "appearance", EXCLUDED: "excluded"}
 
 #: Columns of :attr:`Track.data`, in order.
 TRACK_COLUMNS = ("frame", "t_s", "u_px", "v_px", "area_px", "angle_rad", "length_px", "flags")
@@ -146,7 +154,9 @@ class Track:
         ``u_px, v_px`` (coverage centroid: column, row; pixel (c, r) has its centre at
         (c, r)), ``area_px`` (coverage sum, px^2), ``angle_rad`` (major axis from +u
         towards +v, in (-pi/2, pi/2]), ``length_px`` (``sqrt(12 lambda_max)`` of the
-        coverage's second moments: a rod's length), ``flags`` (see the module).
+        coverage's second moments: a rod's length), ``flags`` (see the module); and
+        ``manual`` (bool: the point was placed by hand, flags 0) when the scene gives
+        manual points for the view.
     view : str or None
         ``"front"``, ``"top"`` or None.
     release_frame : int or None
@@ -444,8 +454,8 @@ def _shadow_beside(work):
     blurred (at least 1.4 times as wide as the object's)."""
     opp = (work.d * work.den < 0) & (np.abs(work.d) > work.t)
     near = cv2.dilate(work.sel, np.ones((9, 9), np.uint8)).view(bool)
-    _, w_opp = edge_stats(work, opp & near)
-    _, w_own = edge_stats(work, work.sel.view(bool))
+    _, w_opp = edge_stats(work, opp & near, alone=True)
+    _, w_own = edge_stats(work, work.sel.view(bool), alone=True)
     return bool(np.isfinite(w_opp) and np.isfinite(w_own) and w_opp >= 1.4 * w_own)
 
 
@@ -739,6 +749,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                     lv = read_level(reg, b)
                     work = reg.work([b.label], lv, margin=work_margin(None, None, b.bbox))
                     b.contrast, b.edge_w = edge_stats(work)
+                    b.edge_w_alone = edge_stats(work, alone=True)[1]
                     b.merged = other_behind(work, lv, width=None, min_area=min_area)
                     b.core, _, b.uniform = trim_attached(work, reach_px=None)
                     sil = measure_silhouette(work, copy.copy(b))
@@ -791,6 +802,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 continue
             work = reg.work([b.label], np.nan, margin=work_margin(None, None, b.bbox))
             b.contrast, b.edge_w = edge_stats(work)
+            b.edge_w_alone = b.edge_w
             measure_silhouette(work, b)
             if not b.area > 0:
                 continue
@@ -958,7 +970,14 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                                                           b.bbox))
             # (a rod of one grey level is seen by its coverage against any background,
             # and what touches it in the other polarity is behind it: a blade)
-            if other_behind(work, lv, width=ref_w, min_area=min_area):
+            if not other_touching(work, width=ref_w, min_area=min_area):
+                pass
+            elif known and _shadow_beside(work):
+                # a shadow beside it (blurred edges, of the other polarity): not an
+                # object behind it; the background darkened by it, also under the
+                # straw's edge, is taken into the coverage's background
+                shade_background(work)
+            elif other_behind(work, lv, width=ref_w, min_area=min_area):
                 fl |= MERGED
             measure(work, b, lv, width=ref_w if known else None,
                     length=ref_len if known else None)
