@@ -487,6 +487,14 @@ class Acquirer:
             return None
         flying = self._distinct(flying)
         flying = self._together(flying, ready)
+        # a small piece moving beside a larger object that flies too is not the object
+        # (the blade's tip beside the straw it throws)
+        flying = [a for a in flying
+                  if not any(b is not a and _co_moving(a, b)
+                             and a.blobs[-1].mask_area < 0.5 * b.blobs[-1].mask_area
+                             for b in flying)]
+        if not flying:
+            return None
         if self.centre_line is not None:
             return min(flying, key=lambda tr: line_distance(tr.points[-1][1], tr.points[-1][2],
                                                             self.centre_line))
@@ -499,9 +507,13 @@ class Acquirer:
         # whether it does (two balls thrown together: the first to have travelled
         # twice its size is not therefore the one)
         members = {id(best)} | {id(q) for q in best.parts}
+        # (one moving with it counts when it is more than twice its size: a small
+        # piece beside a larger object is more likely part of the scene than the object)
+        big = best.blobs[-1].mask_area
         rivals = [tr for tr in ready if id(tr) not in members and tr.almost_flying()
                   and tr.speed() * 1.5 > best.speed() and not self._part(tr, ready)
-                  and not any(_co_moving(tr, q) for q in (best, *best.parts))]
+                  and (tr.blobs[-1].mask_area > 2.0 * big
+                       or not any(_co_moving(tr, q) for q in (best, *best.parts)))]
         if rivals and self.waited < 4 * self.confirm:
             self.waited += 1
             return None
