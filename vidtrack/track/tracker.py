@@ -449,11 +449,15 @@ def _opposite_touching(work, min_area):
     return int(np.count_nonzero(hug & opp)) >= min_area
 
 
-def _shadow_beside(work):
+def _shadow_beside(work, *, least=0.0):
     """What touches the object in the other polarity is a shadow: its edges are
-    blurred (at least 1.4 times as wide as the object's)."""
+    blurred (at least 1.4 times as wide as the object's), and (``least``) it shows
+    beside the object over at least that fraction of the object's pixels (a shadow is
+    a copy of the object; a blurred fringe of something passing behind is not)."""
     opp = (work.d * work.den < 0) & (np.abs(work.d) > work.t)
     near = cv2.dilate(work.sel, np.ones((9, 9), np.uint8)).view(bool)
+    if np.count_nonzero(opp & near) < least * np.count_nonzero(work.sel):
+        return False
     _, w_opp = edge_stats(work, opp & near, alone=True)
     _, w_own = edge_stats(work, work.sel.view(bool), alone=True)
     return bool(np.isfinite(w_opp) and np.isfinite(w_own) and w_opp >= 1.4 * w_own)
@@ -972,7 +976,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             # and what touches it in the other polarity is behind it: a blade)
             if not other_touching(work, width=ref_w, min_area=min_area):
                 pass
-            elif known and _shadow_beside(work):
+            elif known and _shadow_beside(work, least=0.2):
                 # a shadow beside it (blurred edges, of the other polarity): not an
                 # object behind it; the background darkened by it, also under the
                 # straw's edge, is taken into the coverage's background
