@@ -43,13 +43,9 @@ CASES = {
     "person": (["--person-at-side"], ("person",)),
 }
 
-#: Measured on the tracker of 2026-11 (commit bfe59e6 + the tracker then in the checkout).
+#: Measured on the tracker of 2026-11-23 (the rider cases pass since it measures the
+#: straw's own band when something is attached).
 _XFAIL = {
-    "rider_riding": "tracker: front view 'the straw never appears in frames 0..371 ... none "
-                    "moved steadily over 3 consecutive frames'; top view all 372 frames "
-                    "MERGED; vidtrack fit exits 2",
-    "rider_crossing": "tracker: front view 368 of 372 frames MERGED, 0 usable; top view "
-                      "16 usable (206 LOST); vidtrack fit exits 2 'no usable point'",
     "dark": "tracker: top view frame 36 unflagged at 2.64 px from the truth (every other "
             "unflagged frame within 0.09 px; k within 0.03 %)",
     "dark_highlight": "tracker: the highlight pulls the centroid: front median 0.64 px, max "

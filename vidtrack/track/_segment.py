@@ -435,6 +435,52 @@ def other_behind(work, level, *, width, min_area):
     return True
 
 
+def trim_to_rod(work, *, width, length, core=0.75):
+    """Keep the straw's own band of the detections (in place, in ``work``).
+
+    The straw is a rod of a known width and length at one grey level: its fully
+    covered core (coverage at least ``core``; a dimmer rod never reaches it) gives its
+    axis, and only the detections within ``width / 2 + 1`` px of that axis and
+    ``length / 2 + 1`` px along it from the core's centre are the straw's; the rest (a
+    thinner, dimmer rod riding along it or across it) become other pixels, which
+    :func:`measure` leaves out; the band's pixels beside them (not fully covered) are
+    made unreadable, for :func:`measure` to complete from the rod model. Returns the
+    number of detections dropped, or None when
+    the core is too small or too round to give an axis (nothing changed).
+    """
+    sel = work.sel.view(bool)
+    readable = np.abs(work.den) > np.float32(READABLE) * work.t
+    c = np.zeros_like(work.d)
+    np.divide(work.d, work.den, out=c, where=readable)
+    full = sel & readable & (c >= core)
+    if np.count_nonzero(full) < 3:
+        return None
+    m = cv2.moments(full.view(np.uint8), True)
+    a, bb, cc = m["mu20"] / m["m00"], m["mu11"] / m["m00"], m["mu02"] / m["m00"]
+    rad = np.hypot(0.5 * (a - cc), bb)
+    if not rad > 0.25 * (a + cc):       # a round core: no axis
+        return None
+    ang = 0.5 * np.arctan2(2.0 * bb, a - cc)
+    cu, cv_ = m["m10"] / m["m00"], m["m01"] / m["m00"]
+    yy, xx = np.indices(sel.shape, dtype=np.float32)
+    along = (xx - cu) * np.cos(ang) + (yy - cv_) * np.sin(ang)
+    perp = -(xx - cu) * np.sin(ang) + (yy - cv_) * np.cos(ang)
+    band = (np.abs(perp) <= 0.5 * width + 1.0) & (np.abs(along) <= 0.5 * length + 1.0)
+    drop = sel & ~band
+    n = int(np.count_nonzero(drop))
+    if n:
+        work.sel = (sel & band).view(np.uint8)
+        work.others = work.others | drop
+        # the band's edge pixels beside what was cut away show both: not readable,
+        # completed from the rod model
+        beside = cv2.dilate(drop.view(np.uint8), _K3).view(bool) & band & ~full
+        if beside.any():
+            den = work.den.copy()
+            den[beside] = 0.0
+            work.den = den
+    return n
+
+
 def shade_background(work):
     """Take a shadow beside the straw into its background (in place, in ``work``).
 

@@ -79,7 +79,8 @@ from vidtrack.track import _refine
 from vidtrack._progress import progress
 from vidtrack.track._segment import (Segmenter, edge_stats, measure, measure_silhouette,
                                      measure_solid, other_behind, other_touching, read_level,
-                                     shade_background, trim_attached, work_margin)
+                                     shade_background, trim_attached, trim_to_rod,
+                                     work_margin)
 from vidtrack.track._select import Acquirer, Intruders, Predictor, Tracklet
 from vidtrack.track.background import Background, estimate_background, sample_indices
 from vidtrack.errors import TrackError
@@ -115,6 +116,18 @@ TRACK_COLUMNS = ("frame", "t_s", "u_px", "v_px", "area_px", "angle_rad", "length
 #: attached across it (0 for one rod, blurred or not; 0.1-0.17 for a thin rod crossing a
 #: straw at 40 degrees).
 OFF_AXIS_MAX = 0.04
+#: A rod whose coverage fills less than this fraction of what its clean frames filled
+#: (``area / (length x width)``) has something attached.
+FILL_MIN = 0.8
+#: ... and, within :data:`SEPARATE_FRAMES` frames of one with detections beyond its band
+#: (something attached: a tenth of its pixels or more), below this fraction: two rods
+#: drifting apart leave the shape half broken for a while.
+FILL_SEPARATE = 0.9
+SEPARATE_FRAMES = 10
+#: A rod measured on its own band (something attached cut away) is kept when its length
+#: and width are within these fractions of its clean frames'.
+ALONE_LENGTH_TOL = 0.10
+ALONE_WIDTH_TOL = 0.20
 
 #: Memory the start-of-footage buffer for the background may take (bytes).
 _WARMUP_BYTES = 96 * 1024 * 1024
@@ -290,6 +303,7 @@ class _Follow:
         # smoothly from frame to frame, a merge jumps
         self.last_size = None
         self.smooth = True
+        self.cut_at = -10 ** 9           # the last frame with something beyond its band
         # an object of both polarities (segmented so), and one measured by its
         # silhouette (anything but a rod: the coverage by one grey level is a rod's)
         self.mixed = False
@@ -432,6 +446,16 @@ def _flew_clear(u, v, area, clean, start, stop):
     return reach >= 2.0 * size
 
 
+def _first_clean_run(clean, start, length):
+    """First index at or after ``start`` that begins ``length`` clean frames, or None."""
+    run = 0
+    for k in range(start, len(clean)):
+        run = run + 1 if clean[k] else 0
+        if run >= length:
+            return k - length + 1
+    return None
+
+
 def _rod_fill(blob):
     """Coverage area over ``length x width`` of the coverage's moments (1 for a
     rectangle, less for a blurred thin rod, much less for two rods across each other);
@@ -440,6 +464,42 @@ def _rod_fill(blob):
         return None
     box = blob.length * blob.width
     return float(blob.area / box) if box > 0 else None
+
+
+def _attached_across(b, f):
+    """The rod's shape is broken by something attached (its fill below :data:`FILL_MIN`
+    of its clean frames', or coverage beyond its band)."""
+    fill = _rod_fill(b)
+    return (fill is not None and fill < FILL_MIN * f.ref(f.fills, fill)) or \
+        b.off_axis > OFF_AXIS_MAX
+
+
+def _rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area):
+    """(the straw measured on its own band (:func:`trim_to_rod`), or None when nothing
+    lies beyond the band or what is left is not the straw's clean shape (fill, nothing
+    across, length and width as in its clean frames); the detections cut away)."""
+    work = reg.work(group, lv, margin=work_margin(ref_w, ref_len, b.bbox))
+    before = work.others.copy()
+    dropped = trim_to_rod(work, width=ref_w, length=ref_len)
+    if not dropped:
+        return None, 0
+    b2 = copy.copy(b)
+    measure(work, b2, lv, width=ref_w, length=ref_len)
+    fill = _rod_fill(b2)
+    if not (b2.area > 0 and fill is not None and fill >= FILL_MIN * f.ref(f.fills, fill)
+            and b2.off_axis <= OFF_AXIS_MAX
+            and abs(b2.length - ref_len) <= ALONE_LENGTH_TOL * ref_len
+            and abs(b2.width - ref_w) <= ALONE_WIDTH_TOL * ref_w):
+        return None, dropped
+    b2.mask_area = int(np.count_nonzero(work.sel))
+    # something of the other polarity still touching the band (a blade) is behind it;
+    # not the ringing of compression between the straw and the rider cut away
+    cut = cv2.dilate((work.others & ~before).view(np.uint8), np.ones((5, 5), np.uint8))
+    d = work.d
+    work.d = np.where(cut.view(bool), np.float32(0.0), d)
+    b2.merged = other_touching(work, width=ref_w, min_area=min_area)
+    work.d = d
+    return b2, dropped
 
 
 def _opposite_touching(work, min_area):
@@ -985,6 +1045,19 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 fl |= MERGED
             measure(work, b, lv, width=ref_w if known else None,
                     length=ref_len if known else None)
+            if known and len(f.fills) >= 3 and (_attached_across(b, f) or (
+                    len(f.areas) >= 3 and mask_area > 1.3 * f.ref(f.areas, np.inf))):
+                # another rod attached across it or along it (grown): the straw's own band
+                # (its width and length round the axis of its fully covered core)
+                # measured alone, and kept when it has the straw's clean shape
+                b2, cut = _rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area)
+                if cut >= max(3 * min_area, 0.1 * b.mask_area):
+                    f.cut_at = i       # something beyond its band: coming apart later
+                if b2 is not None:
+                    b = b2
+                    mask_area = b2.mask_area
+                    if not b2.merged:
+                        fl &= ~MERGED     # what was across it was the rider, cut away
         else:
             lv = level if level is not None else read_level(reg, b)
             work = reg.work(group, lv, margin=work_margin(None, None, b.bbox))
@@ -1047,8 +1120,12 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             # a rod's coverage fills the rectangle its moments describe (area = length
             # x width); another rod attached across it (crossing, riding along) leaves
             # much of that rectangle empty: a shape the straw's clean frames never had
+            # (coming apart from something attached, it must fill FILL_SEPARATE of it
+            # again for a while)
             fill = _rod_fill(b)
-            if fill is not None and len(f.fills) >= 3 and fill < 0.8 * f.ref(f.fills, fill):
+            least_fill = FILL_SEPARATE if i - f.cut_at <= SEPARATE_FRAMES else FILL_MIN
+            if fill is not None and len(f.fills) >= 3 and \
+                    fill < least_fill * f.ref(f.fills, fill):
                 same_shape = False
             else:
                 same_shape = True
@@ -1293,6 +1370,13 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         # an object of any shape is taken once it has flown a while: its first frames
         # (from the release) are followed backwards from there, read again
         follow_back(first_fol.start, back, first_fol, until_touch=True)
+    elif t_idx is None and first_fol is not None and not first_fol.compact:
+        # a straw taken while something rode along it: the frames before its first
+        # clean run, measured then as one blob with the rider, are followed backwards
+        # from there with what the clean frames taught (its own band measured alone)
+        k0 = _first_clean_run(clean, first_fol.start, 10)
+        if k0 is not None and (flags[first_fol.start:k0] & MERGED).any():
+            follow_back(k0, back, first_fol, until_touch=True)
 
     if not clean.any() and not np.isfinite(u).any():
         if moving_frames == 0:
