@@ -26,6 +26,7 @@ from pathlib import Path
 
 from calibration.errors import InputError
 from vidtrack.scene._check import _resolve, _show, _type_name
+from vidtrack.scene.corrections import corrections_to_dict
 
 __all__ = ["WorldSpec", "CameraView", "CAMERA_VIEW_KEYS", "POINT_FORMATS", "parse_world",
            "parse_camera_view"]
@@ -144,13 +145,7 @@ class CameraView:
         if self.frames is not None:
             out["frames"] = list(self.frames)
         out["sync_frame"] = self.sync_frame
-        if self.target is not None:
-            out["target"] = {"frame": self.target[0], "at_px": list(self.target[1])}
-        if self.exclude_frames:
-            out["exclude_frames"] = [list(r) for r in self.exclude_frames]
-        if self.manual_points_text is not None:
-            out["manual_points"] = self.manual_points_text
-        return out
+        return corrections_to_dict(self, out)
 
 
 def _vector(ck, table, key, path, *, required):

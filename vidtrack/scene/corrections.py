@@ -28,7 +28,8 @@ from vidtrack.errors import SceneError
 from vidtrack.scene._check import _show, _type_name
 
 __all__ = ["ManualPoints", "MANUAL_COLUMNS", "parse_target", "parse_exclude",
-           "parse_manual_points", "read_manual_points", "manual_points_file"]
+           "parse_manual_points", "read_manual_points", "manual_points_file",
+           "corrections_to_dict"]
 
 #: The columns a manual points file must name in its header.
 MANUAL_COLUMNS = ("frame", "u_px", "v_px")
@@ -60,6 +61,18 @@ class ManualPoints:
 
     def __len__(self):
         return len(self.frames)
+
+
+def corrections_to_dict(view, out):
+    """Add a view's ``target``, ``exclude_frames`` and ``manual_points`` to ``out`` (the
+    view's table as scene.toml writes it), each only when given; returns ``out``."""
+    if view.target is not None:
+        out["target"] = {"frame": view.target[0], "at_px": list(view.target[1])}
+    if view.exclude_frames:
+        out["exclude_frames"] = [list(r) for r in view.exclude_frames]
+    if view.manual_points_text is not None:
+        out["manual_points"] = view.manual_points_text
+    return out
 
 
 def _fail(label, key, message):

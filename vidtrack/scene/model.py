@@ -17,6 +17,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from vidtrack.scene.corrections import corrections_to_dict
 from vidtrack.scene.folders import find_throw_dirs
 
 SCENE_FILE = "scene.toml"
@@ -272,13 +273,7 @@ class ViewSpec:
         if self.frames is not None:
             out["frames"] = list(self.frames)
         out["sync_frame"] = self.sync_frame
-        if self.target is not None:
-            out["target"] = {"frame": self.target[0], "at_px": list(self.target[1])}
-        if self.exclude_frames:
-            out["exclude_frames"] = [list(r) for r in self.exclude_frames]
-        if self.manual_points_text is not None:
-            out["manual_points"] = self.manual_points_text
-        return out
+        return corrections_to_dict(self, out)
 
 
 @dataclass(frozen=True)

@@ -887,12 +887,18 @@ def measure_solid(work, blob):
     cov = np.zeros_like(work.d)
     cov[ok] = np.clip(d2[ok] / den2[ok], 0.0, 1.0)
     cov[core_b] = 1.0
-    m = cv2.moments(cov, False)
+    return _from_moments(blob, cov, work.origin)
+
+
+def _from_moments(blob, c, origin):
+    """``blob`` (in place) with the centroid, area, length, width and angle of the
+    coverage image ``c`` whose top-left pixel is ``origin``; area 0 when it is empty."""
+    m = cv2.moments(c, False)
     m00 = m["m00"]
     if not m00 > 0:
         blob.area = 0.0
         return blob
-    x0, y0 = work.origin
+    x0, y0 = origin
     blob.u = x0 + m["m10"] / m00
     blob.v = y0 + m["m01"] / m00
     blob.area = float(m00)
@@ -936,25 +942,7 @@ def measure_silhouette(work, blob):
     c = np.zeros_like(ad)
     c[edge] = np.minimum(ad[edge] / ref[edge], 1.0)
     c[inner] = 1.0
-    m = cv2.moments(c, False)
-    m00 = m["m00"]
-    if not m00 > 0:
-        blob.area = 0.0
-        return blob
-    x0, y0 = work.origin
-    blob.u = x0 + m["m10"] / m00
-    blob.v = y0 + m["m01"] / m00
-    blob.area = float(m00)
-    a, bb, cc = m["mu20"] / m00, m["mu11"] / m00, m["mu02"] / m00
-    half = 0.5 * (a + cc)
-    rad = np.hypot(0.5 * (a - cc), bb)
-    blob.length = float(np.sqrt(12.0 * max(half + rad, 0.0)))
-    blob.width = float(np.sqrt(12.0 * max(half - rad, 0.0)))
-    ang = 0.5 * np.arctan2(2.0 * bb, a - cc)
-    if ang <= -np.pi / 2:
-        ang += np.pi
-    blob.angle = float(ang)
-    return blob
+    return _from_moments(blob, c, work.origin)
 
 
 def work_margin(width, length, bbox):
