@@ -44,10 +44,9 @@ CASES = {
 }
 
 #: Measured on the tracker of 2026-11-23 (the rider cases pass since it measures the
-#: straw's own band when something is attached).
+#: straw's own band when something is attached, the dark straw since the frames taken
+#: with its tracklet are checked against the straw followed after it).
 _XFAIL = {
-    "dark": "tracker: top view frame 36 unflagged at 2.64 px from the truth (every other "
-            "unflagged frame within 0.09 px; k within 0.03 %)",
     "dark_highlight": "tracker: the highlight pulls the centroid: front median 0.64 px, max "
                       "2.70 px over 206 of 336 unflagged frames, top median 0.54 px; k4 "
                       "+17 %, k1 -2.1 %",

@@ -105,6 +105,24 @@ def flag_odd_sizes(area, flags, mask, *, odd_flag, half=20, low=0.7, high=1.35):
     return len(bad)
 
 
+def flag_grown_seeds(area, length, flags, seeds, clean, *, merged_flag, ratio=1.3,
+                     length_ratio=1.15, count=10, reach=60):
+    """Flag frames of ``seeds`` whose ``area`` exceeds ``ratio`` times, or whose
+    ``length`` exceeds ``length_ratio`` times, the median of the first ``count``
+    ``clean`` frames after them (within ``reach`` frames); returns the count flagged."""
+    later = np.flatnonzero(clean & np.isfinite(area) & np.isfinite(length))
+    bad = []
+    for i in np.flatnonzero(seeds & np.isfinite(area) & np.isfinite(length)):
+        k = np.searchsorted(later, i + 1)
+        ref = later[k:k + count]
+        ref = ref[ref - i <= reach]
+        if ref.size >= 3 and (area[i] > ratio * float(np.median(area[ref]))
+                              or length[i] > length_ratio * float(np.median(length[ref]))):
+            bad.append(i)
+    flags[bad] |= merged_flag
+    return len(bad)
+
+
 def flag_outliers(tau, pos, flags, *, clean_mask, outlier_flag, min_px=1.0):
     """Flag clean points that leave the smooth path; returns the robust scatter (px)."""
     idx = np.flatnonzero(clean_mask)

@@ -746,6 +746,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
     length = np.full(n, np.nan)
     flags = np.full(n, LOST, dtype=np.int64)
     clean = np.zeros(n, bool)
+    seeded = np.zeros(n, bool)    # stored from an acquisition's tracklet, not followed
     solid = np.zeros(n, bool)     # measured as an object of any shape (not a rod)
 
     min_area = max(1, int(min_area_px))
@@ -924,6 +925,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 and fill < 0.8 * med_fill) or (not f.compact and b.off_axis > OFF_AXIS_MAX)
             fl = store(b.index, b, MERGED if (b.merged or odd) else 0)
             solid[b.index] = f.compact
+            seeded[b.index] = True
             if np.isfinite(b.level):
                 f.levels.append(b.level)
             if not fl & (BORDER | MERGED) or (not odd and not fl & BORDER):
@@ -1393,6 +1395,11 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
     # frames round it was measured with something attached, or partly hidden, before
     # the object's appearance was known (its first frames, a shadow touching it)
     _refine.flag_odd_sizes(area, flags, solid & (flags == 0), odd_flag=APPEARANCE)
+    # a rod's frames taken with the tracklet that found it were judged against that
+    # tracklet alone: one measured all along with something of its polarity attached
+    # (a dark straw on a dark blade) is larger than the straw followed after it
+    _refine.flag_grown_seeds(area, length, flags, seeded & ~solid & (flags == 0),
+                             (flags == 0) & ~seeded & ~solid, merged_flag=MERGED)
     pos = np.column_stack([u, v])
     scatter = _refine.flag_outliers(tau, pos, flags, clean_mask=flags == 0,
                                     outlier_flag=OUTLIER)
