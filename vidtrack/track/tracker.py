@@ -1265,13 +1265,19 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 held = {j: source[j] for j in range(lo, i + 1)}
                 oldest = lo
             frame = held.pop(i)
+            before = (u[i], v[i], area[i], angle[i], length[i], flags[i], clean[i], solid[i])
             if follow(i, frame, f):
                 f.gap = 0
                 if until_touch and flags[i] != 0:
-                    # touching what released it: that frame is not the object's
-                    u[i] = v[i] = area[i] = angle[i] = length[i] = np.nan
-                    flags[i] = LOST
-                    clean[i] = solid[i] = False
+                    # touching what released it: that frame is not the object's alone;
+                    # as it was measured before (a rod's tracklet), or not at all
+                    if np.isfinite(before[0]):
+                        (u[i], v[i], area[i], angle[i], length[i], flags[i], clean[i],
+                         solid[i]) = before
+                    else:
+                        u[i] = v[i] = area[i] = angle[i] = length[i] = np.nan
+                        flags[i] = LOST
+                        clean[i] = solid[i] = False
                     break
             else:
                 f.gap += 1
