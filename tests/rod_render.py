@@ -102,3 +102,16 @@ def shadow_factor(cov, *, darkness, blur_px):
 
     soft = cv2.GaussianBlur(cov.astype(np.float32), (0, 0), blur_px).astype(np.float64)
     return 1.0 - darkness * soft
+
+
+def write_avi(path, frames, fps=30.0):
+    """Grey ``frames`` (uint8) to a lossless FFV1 AVI at ``path`` (OpenCV); returns it."""
+    import cv2
+
+    h, w = frames[0].shape
+    vw = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), fps, (w, h), False)
+    assert vw.isOpened()
+    for f in frames:
+        vw.write(f)
+    vw.release()
+    return path

@@ -2,10 +2,9 @@
 (noise, motion blur and MJPG compression on), and rods rendered here with exact
 coverage over a texture (``rod_render``)."""
 
-import cv2
 import numpy as np
 import pytest
-from rod_render import compose, rod_coverage, texture
+from rod_render import compose, rod_coverage, texture, write_avi
 from synth_runs import centroid_errors, synth_run, view_truth
 
 from fits.throw import position
@@ -301,16 +300,6 @@ def test_blade_region_flags_overlap(default_run):
 
 
 # --------------------------------------------------------------------- own footage
-def _write_avi(path, frames, fps=30.0):
-    h, w = frames[0].shape
-    vw = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), fps, (w, h), False)
-    assert vw.isOpened()
-    for f in frames:
-        vw.write(f)
-    vw.release()
-    return path
-
-
 def _rod_footage(rng, n=60, *, hide=(), jump=False):
     shape = (120, 200)
     bg = texture(shape, rng=rng, contrast=30.0)
@@ -330,7 +319,7 @@ def test_gap_is_bridged_by_prediction(tmp_path):
     rng = np.random.default_rng(3)
     hidden = (30, 31, 32)
     frames, truth = _rod_footage(rng, hide=hidden)
-    path = _write_avi(tmp_path / "gap.avi", frames)
+    path = write_avi(tmp_path / "gap.avi", frames)
     with open_source(path, fps=500) as src:
         tr = track(src, view="front")
     flags = tr.data["flags"].to_numpy()
@@ -347,7 +336,7 @@ def test_nothing_moves_names_the_view(tmp_path):
     rng = np.random.default_rng(4)
     bg = texture((100, 140), rng=rng)
     frames = [compose(bg, np.zeros(bg.shape), 0.0, rng=rng, noise=1.5) for _ in range(30)]
-    path = _write_avi(tmp_path / "still.avi", frames)
+    path = write_avi(tmp_path / "still.avi", frames)
     with open_source(path, fps=1000) as src, pytest.raises(TrackError) as err:
         track(src, view="top")
     assert "view top" in str(err.value) and "nothing moves" in str(err.value)
@@ -356,7 +345,7 @@ def test_nothing_moves_names_the_view(tmp_path):
 def test_straw_never_appears_names_the_view(tmp_path):
     rng = np.random.default_rng(5)
     frames, _ = _rod_footage(rng, n=40, jump=True)   # something flickers about, no flight
-    path = _write_avi(tmp_path / "jumps.avi", frames)
+    path = write_avi(tmp_path / "jumps.avi", frames)
     with open_source(path, fps=1000) as src, pytest.raises(TrackError) as err:
         track(src, view="front")
     assert "view front" in str(err.value) and "never appears" in str(err.value)
@@ -365,7 +354,7 @@ def test_straw_never_appears_names_the_view(tmp_path):
 def test_bad_options_and_background_size(tmp_path):
     rng = np.random.default_rng(6)
     frames, _ = _rod_footage(rng, n=20)
-    path = _write_avi(tmp_path / "rod.avi", frames)
+    path = write_avi(tmp_path / "rod.avi", frames)
     wrong = Background(image=np.zeros((10, 10), np.float32), noise_sigma=1.0,
                        noise_map=np.zeros((10, 10), np.float32), n_samples=5)
     with open_source(path, fps=1000) as src:

@@ -5,27 +5,16 @@ at the side, two objects flying alike (the tracker must ask), an object named by
 ``target`` (followed both ways in time). Every unflagged frame must be within 0.5 px of
 the truth: a frame the tracker cannot measure must be flagged, not guessed."""
 
-import cv2
 import numpy as np
 import pytest
 from rod_render import (compose, disc_coverage, ellipse_coverage, rod_coverage,
-                        shadow_factor, texture)
+                        shadow_factor, texture, write_avi)
 
 from vidtrack.errors import TrackError
 from vidtrack.footage import open_source
 from vidtrack.track.tracker import MERGED, track
 
 SHAPE = (180, 240)
-
-
-def _write_avi(path, frames, fps=30.0):
-    h, w = frames[0].shape
-    vw = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), fps, (w, h), False)
-    assert vw.isOpened()
-    for f in frames:
-        vw.write(f)
-    vw.release()
-    return path
 
 
 def _ballistic(n, start, vel, g=0.06):
@@ -35,7 +24,7 @@ def _ballistic(n, start, vel, g=0.06):
 
 
 def _track(tmp_path, frames, fps=500.0, name="scene.avi", **kw):
-    path = _write_avi(tmp_path / name, frames)
+    path = write_avi(tmp_path / name, frames)
     with open_source(path, fps=fps) as src:
         return track(src, view="front", **kw)
 
