@@ -43,14 +43,9 @@ CASES = {
     "person": (["--person-at-side"], ("person",)),
 }
 
-#: Measured on the tracker of 2026-11-23 (the rider cases pass since it measures the
-#: straw's own band when something is attached, the dark straw since the frames taken
-#: with its tracklet are checked against the straw followed after it).
-_XFAIL = {
-    "dark_highlight": "tracker: the highlight pulls the centroid: front median 0.64 px, max "
-                      "2.70 px over 206 of 336 unflagged frames, top median 0.54 px; k4 "
-                      "+17 %, k1 -2.1 %",
-}
+#: Cases the tracker fails, with what was measured (none: the dark straw with its
+#: highlight passes since a rod of both polarities is measured by its convex body).
+_XFAIL = {}
 
 
 def _case_param(name):

@@ -21,6 +21,7 @@ the coverage cannot be read off the pixel; inside the straw's rod (its axis and 
 from the readable part) such a pixel gets the rod's coverage (:func:`_band_fill`).
 """
 
+import copy
 import math
 from dataclasses import dataclass
 
@@ -943,6 +944,115 @@ def measure_silhouette(work, blob):
     c[edge] = np.minimum(ad[edge] / ref[edge], 1.0)
     c[inner] = 1.0
     return _from_moments(blob, c, work.origin)
+
+
+def measure_mixed(work, blob, *, rod=None):
+    """Centroid etc. of an object of both polarities (in place): a rod (a dark straw
+    with a highlight along it) by its body, anything else by :func:`measure_silhouette`.
+    ``rod``: whether it is one (as its clean frames were: a straw seen end on still is);
+    None: when this frame's body is 3 times as long as wide.
+
+    The body is what differs from the background by at least 0.15 of the object's
+    contrast (the 90th percentile of ``|f - b|``; what the closing adds and
+    compression's ringing round a sharp edge stay below), closed, holes filled, and its
+    convex hull taken (a highlight reaching the edge leaves a notch). The body's
+    interior covers fully. An edge pixel (the body's outer pixel and the one beyond)
+    that shows at least a quarter of the contrast is read against the level of its own
+    polarity within 2 px (a shaded rod is not of one level end to end); a fainter one
+    is read signed against the polarity round it, so that noise and ringing average
+    out instead of adding up. Where the highlight's blur
+    cancels part of the edge the coverage reads low: the centre along the axis is then
+    taken halfway between the ends (:func:`_rod_ends_centre`).
+    """
+    sel = work.sel.view(bool)
+    if not sel.any():
+        blob.area = 0.0
+        return blob
+    d = work.d
+    ad = np.abs(d)
+    zero = np.float32(0.0)
+    top = np.float32(np.percentile(ad[sel], 90))
+    strong = sel & (ad >= 0.25 * top)
+    faint = (sel & (ad > 0.15 * top)).view(np.uint8)
+    body = fill_holes(cv2.morphologyEx(faint, cv2.MORPH_CLOSE, _K3))
+    body &= ~work.others
+    if not body.any():
+        return measure_silhouette(work, blob)
+    if rod is None:
+        probe = _from_moments(copy.copy(blob), body.astype(np.float32), (0, 0))
+        rod = probe.area > 0 and probe.length >= 3.0 * max(probe.width, 1.0)
+    if not rod:
+        return measure_silhouette(work, blob)
+    pts = cv2.findNonZero(body.view(np.uint8))
+    hull = np.zeros(body.shape, np.uint8)
+    cv2.fillConvexPoly(hull, cv2.convexHull(pts), 1)
+    body = hull.view(bool) & ~work.others
+    bu8 = body.view(np.uint8)
+    inner = cv2.erode(bu8, _K3).view(bool)
+    edge = cv2.dilate(bu8, _K3).view(bool) & ~inner & ~work.others
+    if work.trimmed is not None:
+        edge &= ~work.trimmed
+    # the polarity round each pixel (of the body's strong pixels within 2 px)
+    sgn = np.where(strong & body, np.sign(d), zero).astype(np.float32)
+    near = cv2.blur(sgn, (5, 5), borderType=cv2.BORDER_CONSTANT)
+    side = np.where(strong, np.sign(d), np.sign(near)).astype(np.float32)
+    side[side == 0] = np.sign(d[side == 0])
+    ref = np.zeros_like(d)
+    for pol in (1.0, -1.0):
+        mine = strong & body & (d * pol > 0)
+        if not mine.any():
+            continue
+        vals = (d * pol)[mine]
+        k = max(1, vals.size // 3)
+        level = float(np.median(np.partition(vals, vals.size - k)[vals.size - k:]))
+        loc = cv2.dilate(np.where(mine, d * pol, zero), _K5)
+        loc = np.where(loc >= 0.5 * level, loc, np.float32(level))
+        ref = np.where(side == pol, loc, ref)
+    ref = np.where(ref > 0, ref, top)
+    c = np.zeros_like(d)
+    c[edge] = np.clip(side[edge] * d[edge] / ref[edge], -1.0, 1.0)
+    c[inner] = 1.0
+    _from_moments(blob, c, work.origin)
+    if blob.area > 0:
+        _rod_ends_centre(blob, c, work.origin)
+    return blob
+
+
+def _rod_ends_centre(blob, c, origin):
+    """Move a rod's centroid along its axis to halfway between its ends (in place).
+
+    A rod is uniform along its length: its coverage per unit length there is its width.
+    Where a highlight's blur cancels part of its edge the coverage there reads low and
+    pulls the moments' centroid towards the other end. Along the axis the coverage is
+    binned (1 px); bins more than 1.5 widths from both ends are given the median of
+    those bins, the ends keep what they read.
+    """
+    x0, y0 = origin
+    cx, cy = blob.u - x0, blob.v - y0
+    ca, sa = np.cos(blob.angle), np.sin(blob.angle)
+    ys, xs = np.nonzero(c)
+    w = c[ys, xs].astype(np.float64)
+    s = (xs - cx) * ca + (ys - cy) * sa
+    lit = w > 0.05
+    if np.count_nonzero(lit) < 6:
+        return
+    lo, hi = float(s[lit].min()), float(s[lit].max())
+    k = np.floor(s - lo + 0.5).astype(int)
+    keep = (k >= 0) & (k <= int(round(hi - lo)))
+    prof = np.bincount(k[keep], weights=w[keep], minlength=int(round(hi - lo)) + 1)
+    centres = lo + np.arange(prof.size)
+    margin = 1.5 * max(blob.width, 1.0)
+    mid = (centres > lo + margin) & (centres < hi - margin)
+    if np.count_nonzero(mid) < 3:
+        return
+    prof = prof.copy()
+    prof[mid] = float(np.median(prof[mid]))
+    tot = float(prof.sum())
+    if not tot > 0:
+        return
+    shift = float((prof * centres).sum() / tot)
+    blob.u += shift * ca
+    blob.v += shift * sa
 
 
 def work_margin(width, length, bbox):

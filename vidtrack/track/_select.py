@@ -279,6 +279,44 @@ def _inside(a, b, gap=2):
     return bx0 - gap <= ax0 and by0 - gap <= ay0 and ax1 <= bx1 + gap and ay1 <= by1 + gap
 
 
+def on_body(part, whole):
+    """``part`` lies on ``whole``'s body (a highlight on a ball or a straw, a straw held
+    by a blade): when ``whole`` is a rod, ``part``'s centre within its band (half its
+    width and a pixel from its axis) and ``part``'s box within its length (and 1.5 px)
+    along it; else ``part``'s centre within the disc of ``whole``'s area round its
+    centre and its box within ``whole``'s (and a pixel). Not a piece beyond a rod's
+    end (the blade's tip that threw it)."""
+    if not (np.isfinite(whole.u) and np.isfinite(whole.v)):
+        return False
+    du, dv = part.u - whole.u, part.v - whole.v
+    x0, y0, x1, y1 = part.bbox
+    if (np.isfinite(whole.angle) and np.isfinite(whole.length) and np.isfinite(whole.width)
+            and _rodlike(whole)):
+        ca, sa = np.cos(whole.angle), np.sin(whole.angle)
+        across = abs(-du * sa + dv * ca)
+        along = [(x - whole.u) * ca + (y - whole.v) * sa
+                 for x in (x0, x1) for y in (y0, y1)]
+        return bool(across <= 0.5 * whole.width + 1.0
+                    and max(abs(a) for a in along) <= 0.5 * whole.length + 1.5)
+    wx0, wy0, wx1, wy1 = whole.bbox
+    r = np.sqrt(max(whole.mask_area, 1) / np.pi)
+    return bool(wx0 - 1 <= x0 and wy0 - 1 <= y0 and x1 <= wx1 + 1 and y1 <= wy1 + 1
+                and np.hypot(du, dv) <= r)
+
+
+def held(blob, blobs, *, ratio=2.0):
+    """``blob`` lies on the body of a rod of the other polarity in ``blobs``, at least
+    ``ratio`` times its size and no narrower: a part of that rod (a dark straw's
+    highlight), not the object. (Among the parts of a textured object, light on dark,
+    the whole is chosen otherwise.)"""
+    if blob.polarity == 0:
+        return False
+    return any(b is not blob and b.polarity == -blob.polarity
+               and b.mask_area >= ratio * blob.mask_area and _rodlike(b)
+               and not (blob.width > b.width) and on_body(blob, b)
+               for b in blobs)
+
+
 def _merged_blob(a, b):
     """One blob of two that fly together (their silhouettes' area-weighted centre)."""
     import copy
@@ -473,6 +511,11 @@ class Acquirer:
         sizes = [min(b.mask_area for b in tr.blobs[-self.confirm:]) for tr in ready]
         if max(sizes) >= self.tiny_px:
             ready = [tr for tr, s in zip(ready, sizes) if s >= self.tiny_px]
+        # a part lying on a larger rod of the other polarity (its highlight) is not
+        # taken: the rod is
+        ready = [tr for tr in ready if not held(tr.blobs[-1], blobs)]
+        if not ready:
+            return None
         if (len(ready) == 1 and len(ready[0].points) > self.confirm
                 and ready[0].area_ratio() <= 1.5 and self._alone(ready[0], blobs)):
             # the one thing moving, keeping its size (a hand throwing changes shape)

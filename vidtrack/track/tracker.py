@@ -77,11 +77,12 @@ import numpy as np
 
 from vidtrack.track import _refine
 from vidtrack._progress import progress
-from vidtrack.track._segment import (Segmenter, edge_stats, measure, measure_silhouette,
+from vidtrack.track._segment import (Segmenter, edge_stats, measure, measure_mixed,
+                                     measure_silhouette,
                                      measure_solid, other_behind, other_touching, read_level,
                                      shade_background, trim_attached, trim_to_rod,
                                      work_margin)
-from vidtrack.track._select import Acquirer, Intruders, Predictor, Tracklet
+from vidtrack.track._select import Acquirer, Intruders, Predictor, Tracklet, on_body
 from vidtrack.track.background import Background, estimate_background, sample_indices
 from vidtrack.errors import TrackError
 
@@ -308,6 +309,7 @@ class _Follow:
         # silhouette (anything but a rod: the coverage by one grey level is a rod's)
         self.mixed = False
         self.compact = False
+        self.rod = False        # an object of both polarities whose clean frames are a rod
         # (levels, areas, lengths, widths) of its first clean frames
         self.snapshot = None
 
@@ -444,6 +446,17 @@ def _flew_clear(u, v, area, clean, start, stop):
     size = max(float(np.sqrt(np.median(area[ok]))), 4.0)
     reach = float(np.hypot(np.ptp(u[ok]), np.ptp(v[ok])))
     return reach >= 2.0 * size
+
+
+def _last_split(blobs, *, ratio=1.33, keep=3):
+    """Index of the first blob after the last one-frame change of the mask area by more
+    than ``ratio`` (a split or a merge), when at least ``keep`` blobs follow it; else 0."""
+    a = np.array([max(b.mask_area, 1) for b in blobs], float)
+    if a.size <= keep:
+        return 0
+    jump = np.flatnonzero(np.maximum(a[1:] / a[:-1], a[:-1] / a[1:]) > ratio) + 1
+    jump = jump[jump <= a.size - keep]
+    return int(jump[-1]) if jump.size else 0
 
 
 def _first_clean_run(clean, start, length):
@@ -853,8 +866,8 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             # sides); a straw on a large blade is neither
             outer = max(inside[big], key=lambda q: q.mask_area)
             ox0, oy0, ox1, oy1 = outer.bbox
-            enclosed = all(ox0 <= q.bbox[0] and oy0 <= q.bbox[1] and q.bbox[2] <= ox1
-                           and q.bbox[3] <= oy1 for q in inside[small])
+            enclosed = all((ox0 <= q.bbox[0] and oy0 <= q.bbox[1] and q.bbox[2] <= ox1
+                            and q.bbox[3] <= oy1) or on_body(q, outer) for q in inside[small])
             # (a rod riding a blade of the other polarity is its own object; a
             # patch of another shape is a part, up to a tenth of the whole)
             rods = any(_rodlike([q]) for q in inside[small])
@@ -868,7 +881,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             work = reg.work([b.label], np.nan, margin=work_margin(None, None, b.bbox))
             b.contrast, b.edge_w = edge_stats(work)
             b.edge_w_alone = b.edge_w
-            measure_silhouette(work, b)
+            measure_mixed(work, b)
             if not b.area > 0:
                 continue
             b.polarity = 0
@@ -908,6 +921,15 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         f = _Follow()
         f.mixed = tr.polarity == 0
         f.compact = f.mixed or not _rodlike(tr.blobs)
+        f.rod = f.mixed and _rodlike(tr.blobs)
+        if f.compact:
+            # frames before the tracklet's blob last split or grew at once (the object
+            # leaving what it rode on) were of something else too: they are read again
+            # backwards from the first after it
+            k0 = _last_split(tr.blobs)
+            if k0:
+                tr = copy.copy(tr)
+                tr.points, tr.blobs = tr.points[k0:], tr.blobs[k0:]
         f.start = tr.blobs[0].index
         # a detection unlike the tracklet's others (twice the area, or a rod's shape
         # broken by something across it) is not the object's alone
@@ -1029,7 +1051,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             # an object of both polarities: its silhouette (the other polarity is its
             # own, not something behind it)
             work = reg.work(group, np.nan, margin=work_margin(None, None, b.bbox))
-            measure_silhouette(work, b)
+            measure_mixed(work, b, rod=f.rod)
         elif not f.compact:
             lv = level if level is not None else read_level(reg, b)
             work = reg.work(group, lv, margin=work_margin(ref_w, ref_len if known else None,
@@ -1241,9 +1263,11 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         f = _Follow()
         f.mixed = ahead.mixed
         f.compact = ahead.compact
+        f.rod = ahead.rod
         f.start = 0
         for k in good[:16]:
             f.pred.add(tau[k], u[k], v[k])
+        near_area = float(np.median(area[good[:16]]))
         levels, areas, lengths, widths = ahead.snapshot or (
             list(ahead.levels), list(ahead.areas), list(ahead.lengths), list(ahead.widths))
         f.levels.extend(levels)
@@ -1268,7 +1292,10 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             before = (u[i], v[i], area[i], angle[i], length[i], flags[i], clean[i], solid[i])
             if follow(i, frame, f):
                 f.gap = 0
-                if until_touch and flags[i] != 0:
+                # (or merged into one blob with it: grown at once, from the frame after
+                # it, beyond the size it had when first clean)
+                if until_touch and (flags[i] != 0 or (
+                        area[i] > 1.25 * near_area and area[i] > 1.25 * area[i + 1])):
                     # touching what released it: that frame is not the object's alone;
                     # as it was measured before (a rod's tracklet), or not at all
                     if np.isfinite(before[0]):
