@@ -629,6 +629,15 @@ def measure(work, blob, level, *, width=None, length=None):
     np.divide(d, den, out=c, where=readable)
     np.clip(c, *COVERAGE_RANGE, out=c)
     sup = support.view(bool)
+    # a highlight along the straw (brighter than the background where the straw is
+    # darker), which the closing took into the detections, would be read as negative
+    # coverage: a rod of both polarities, measured by its body
+    lit = cv2.erode(work.sel, _K3).view(bool) & (d * den < 0) & (np.abs(d) > t)
+    if np.count_nonzero(lit) >= max(3, 0.05 * np.count_nonzero(work.sel)):
+        measure_mixed(work, blob, rod=True)
+        blob.level = level
+        blob.off_axis = 0.0
+        return blob
     unread = sup & ~readable
     if unread.any():
         c_read = c.copy()
@@ -973,7 +982,7 @@ def measure_mixed(work, blob, *, rod=None):
     zero = np.float32(0.0)
     top = np.float32(np.percentile(ad[sel], 90))
     strong = sel & (ad >= 0.25 * top)
-    faint = (sel & (ad > 0.15 * top)).view(np.uint8)
+    faint = (sel & (ad > 0.3 * top)).view(np.uint8)
     body = fill_holes(cv2.morphologyEx(faint, cv2.MORPH_CLOSE, _K3))
     body &= ~work.others
     if not body.any():
@@ -983,6 +992,11 @@ def measure_mixed(work, blob, *, rod=None):
         rod = probe.area > 0 and probe.length >= 3.0 * max(probe.width, 1.0)
     if not rod:
         return measure_silhouette(work, blob)
+    # (its largest piece: a speck of compression's ringing beside it would stretch the
+    # hull over the background)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(body.view(np.uint8), connectivity=8)
+    if n > 2:
+        body = labels == 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
     pts = cv2.findNonZero(body.view(np.uint8))
     hull = np.zeros(body.shape, np.uint8)
     cv2.fillConvexPoly(hull, cv2.convexHull(pts), 1)
