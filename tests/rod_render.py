@@ -105,11 +105,13 @@ def shadow_factor(cov, *, darkness, blur_px):
 
 
 def write_avi(path, frames, fps=30.0):
-    """Grey ``frames`` (uint8) to a lossless FFV1 AVI at ``path`` (OpenCV); returns it."""
+    """Grey ``(rows, cols)`` or BGR colour ``(rows, cols, 3)`` ``frames`` (uint8) to a
+    lossless FFV1 AVI at ``path`` (OpenCV); returns it."""
     import cv2
 
-    h, w = frames[0].shape
-    vw = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), fps, (w, h), False)
+    h, w = frames[0].shape[:2]
+    colour = frames[0].ndim == 3
+    vw = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), fps, (w, h), colour)
     assert vw.isOpened()
     for f in frames:
         vw.write(f)

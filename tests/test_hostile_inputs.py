@@ -416,6 +416,13 @@ CASES = [
                                     "--fps", "1e-300"), stderr=r"fps must be between 0\.1"),
     Case("frames-every-negative", args=("frames", "{repo}/datasets/run42/front.avi", "out",
                                         "--every", "-3"), stderr=r"--every must be >= 1"),
+    Case("frames-channel-not-a-channel",
+         args=("frames", "{repo}/datasets/run42/front.avi", "out", "--channel", "purple"),
+         stderr=r"channel must be one of luma, red, green, blue, auto, got 'purple'"),
+    Case("frames-colour-channel-of-grey-footage",
+         args=("frames", "{repo}/datasets/run42/front.avi", "out", "--channel", "red"),
+         stderr=r"front\.avi: channel \"red\" takes the red channel of colour footage, but "
+                r"this video is grey"),
     Case("frames-out-is-its-source", setup=copied(RUN42 / "front.avi"),
          args=("frames", "front.avi", "front.avi", "--fps", "1200"),
          stderr=r"front\.avi: is the input front\.avi"),
@@ -681,6 +688,20 @@ CASES += [
          args=("fit", "run"),
          stderr=r"views\.front\.manual_points \(m\.csv\) has frame 60, which exclude_frames "
                 r"\[55, 65\) takes out"),
+    # ---- the grey image tracked: views.<v>.channel -----------------------------------
+    Case("fit-channel-not-a-channel",
+         setup=run42_copy(scene=scene_value("channel", '"purple"')), args=("fit", "run"),
+         stderr=r"run/scene\.toml: views\.front\.channel must be one of \"luma\", \"red\", "
+                r"\"green\", \"blue\", \"auto\", got a string 'purple'$"),
+    Case("fit-channel-a-number",
+         setup=run42_copy(scene=scene_value("channel", "3", "top")), args=("fit", "run"),
+         stderr=r"views\.top\.channel must be one of .*, got an integer 3$"),
+    Case("fit-colour-channel-of-grey-footage",
+         setup=run42_copy(scene=scene_value("channel", '"red"')), args=("fit", "run"),
+         stderr=r"run 'run42' \(run\), view front: run/front\.avi: channel \"red\" takes the "
+                r"red channel of colour footage, but this video is grey \(three equal channels "
+                r"in every frame checked\); expected channel = \"luma\" or \"auto\" for grey "
+                r"footage$"),
     Case("fit-manual-points-a-folder",
          setup=both(run42_copy(scene=with_manual("mp")), files({"run/mp/x.csv": "x"})),
          args=("fit", "run"),

@@ -50,6 +50,18 @@ def test_a_calibrated_scene_loads(tmp_path):
     assert load_scene(again).hash == s.hash
 
 
+def test_a_calibrated_view_has_a_channel(tmp_path):
+    data = base()
+    assert load_scene(write(tmp_path / "luma", data)).views["cam2"].channel == "luma"
+    data["views"]["cam2"]["channel"] = "blue"
+    s = load_scene(write(tmp_path / "run", data))
+    assert s.views["cam2"].channel == "blue" and s.views["cam2"].to_dict()["channel"] == "blue"
+    assert "channel" not in s.views["cam1"].to_dict()
+    again = write(tmp_path / "again", {})
+    (again / "scene.toml").write_text(scene_to_toml(s.to_dict()))
+    assert load_scene(again).views["cam2"].channel == "blue"
+
+
 BAD = [
     (lambda d: d["views"]["cam1"].update(dlt=DLT[:10]), "views.cam1.dlt",
      "must be 11 finite numbers"),
@@ -88,6 +100,10 @@ BAD = [
     (lambda d: d.pop("world"), "world", "is required with calibrated cameras"),
     (lambda d: d["views"].pop("cam2"), "views", "two or more views"),
     (lambda d: d["world"].update(down=[0, 0, 1]), "world.down", "is not a known key"),
+    (lambda d: d["views"]["cam1"].update(channel="red"), "views.cam1.channel",
+     "goes with source .*, not points"),
+    (lambda d: d["views"]["cam2"].update(channel="purple"), "views.cam2.channel",
+     "must be one of \"luma\", \"red\", \"green\", \"blue\", \"auto\", got a string 'purple'"),
 ]
 
 

@@ -9,7 +9,8 @@ OUT/frames.csv with columns frame, t_s (s, relative to the file's first frame), 
 
 Bit depth is kept: a 16-bit source (a .cine, 16-bit png/tif) stays 16-bit in png and
 tiff, with its stored values unchanged (a 12-bit camera gives 0..4095). jpg holds only
-8 bits and is refused for 16-bit sources. Colour is converted to grey.
+8 bits and is refused for 16-bit sources. Colour is converted to grey: BT.601 luma, or
+with --channel one colour channel or the one "auto" chooses (as scene.toml's channel).
 
 Times: a .cine's per-image time stamps are used when present (and checked against
 --fps or the setup frame rate); otherwise --fps, the CAPTURE rate, wins over the rate
@@ -40,6 +41,10 @@ def add_arguments(parser):
                         help="capture rate in frames/s, e.g. --fps 1200; wins over a video "
                              "container's rate (a .cine's time stamps are kept and checked "
                              "against it)")
+    parser.add_argument("--channel", default="luma", metavar="CHANNEL",
+                        help="the grey image written from colour footage: luma (default, "
+                             "BT.601), red, green, blue, or auto (the channel in which "
+                             "moving things stand out most, noted on stderr)")
     parser.add_argument("--no-time-stamps", action="store_true",
                         help="time a .cine by --fps (or its setup frame rate) instead of its "
                              "per-image time stamps")
@@ -74,7 +79,7 @@ def run(args):
     frames = _parse_range(args.range)
     if args.every < 1:
         raise VidtrackError(f"--every must be >= 1, got {args.every}")
-    with open_source(args.source, fps=args.fps, frames=frames,
+    with open_source(args.source, fps=args.fps, frames=frames, channel=args.channel,
                      use_time_stamps=not args.no_time_stamps) as source:
         report = check_time_base(source, duplicates=False)
         result = export_frames(source, args.out, every=args.every, fmt=args.fmt,

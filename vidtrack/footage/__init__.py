@@ -5,6 +5,8 @@
 - ``video``: :class:`VideoSource` (any file OpenCV/FFmpeg decodes);
 - ``images``: :class:`ImageFolderSource` (a folder of png/jpg/tif/bmp files);
 - ``cine``: :class:`CineSource` and :func:`write_cine` (Phantom .cine files);
+- ``channel``: which grey image a source gives of colour footage (a colour channel,
+  or the one ``"auto"`` chooses);
 - ``sources``: :func:`open_source`, which picks the reader by what the path is;
 - ``timebase``: checks of a source's time base (time stamps, rates, duplicated frames);
 - ``export``: :func:`export_frames` (frames to numbered image files plus ``frames.csv``).

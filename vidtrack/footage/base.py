@@ -37,7 +37,9 @@ Colour frames are converted to grey with OpenCV's ``cvtColor`` (ITU-R BT.601 lum
 ``0.299 R + 0.587 G + 0.114 B``), keeping the dtype (8-bit stays 8-bit, 16-bit stays
 16-bit). Grey frames that a container stores as three equal channels come back
 unchanged. A video may instead be read as its decoder's luma plane (see
-:mod:`vidtrack.footage.video`).
+:mod:`vidtrack.footage.video`). With ``channel`` (``scene.toml`` ``views.<v>.channel``)
+a source gives one colour channel instead, or the one chosen by ``"auto"``
+(:mod:`vidtrack.footage.channel`).
 """
 
 import os
@@ -48,7 +50,7 @@ import numpy as np
 
 from vidtrack.errors import SourceError
 
-__all__ = ["FrameSource", "natural_key", "to_grey"]
+__all__ = ["CHANNEL_INDEX", "FrameSource", "natural_key", "to_grey"]
 
 
 def _cv2():
@@ -80,7 +82,11 @@ def natural_key(name):
     return tuple(int(p) if k % 2 else p.lower() for k, p in enumerate(parts)) + (text,)
 
 
-def to_grey(image):
+#: Index of each colour channel in OpenCV's BGR (and BGRA) order.
+CHANNEL_INDEX = {"blue": 0, "green": 1, "red": 2}
+
+
+def to_grey(image, channel="luma"):
     """Return ``image`` as a 2-D grey array of the same dtype (BT.601 luma for colour).
 
     Parameters
@@ -88,12 +94,28 @@ def to_grey(image):
     image : numpy.ndarray
         ``(rows, cols)``, ``(rows, cols, 1)``, BGR ``(rows, cols, 3)`` or BGRA
         ``(rows, cols, 4)`` as OpenCV returns them.
+    channel : str, optional
+        ``"luma"`` (default: BT.601 luma of colour, grey returned as it is), or
+        ``"red"``, ``"green"``, ``"blue"``: that channel of a colour image.
 
     Returns
     -------
     numpy.ndarray
         ``(rows, cols)``.
+
+    Raises
+    ------
+    SourceError
+        A colour channel of a grey image, an unknown ``channel``, or a shape that is not
+        an image.
     """
+    if channel != "luma":
+        if channel not in CHANNEL_INDEX:
+            raise SourceError(f"channel must be luma, red, green or blue, got {channel!r}")
+        if image.ndim == 3 and image.shape[2] in (3, 4):
+            return image[:, :, CHANNEL_INDEX[channel]].copy()
+        raise SourceError(f"cannot take the {channel} channel of an image of shape "
+                          f"{image.shape}: it is not colour")
     if image.ndim == 2:
         return image
     if image.ndim == 3 and image.shape[2] == 1:
@@ -121,6 +143,14 @@ def _check_fps(fps, what="fps"):
         raise SourceError(f"{what} must be between {FPS_RANGE[0]:g} and {FPS_RANGE[1]:g} "
                           f"frames/s (a capture rate), got {fps!r}")
     return value
+
+
+def _check_channel(channel):
+    from vidtrack.scene.model import CHANNELS
+
+    if not (isinstance(channel, str) and channel in CHANNELS):
+        raise SourceError(f"channel must be one of {', '.join(CHANNELS)}, got {channel!r}")
+    return channel
 
 
 def _check_range(frames):
@@ -169,7 +199,14 @@ class FrameSource:
         ``"time stamps"``, ``"fps"`` (given) or ``"container"``; ``"none"`` when no rate
         is known.
     notes : tuple of str
-        Things noticed while opening (e.g. unusable time stamps).
+        Things noticed while opening (e.g. unusable time stamps, the channel
+        ``"auto"`` chose and why).
+    channel : str
+        The grey image the frames are: ``"luma"``, ``"red"``, ``"green"`` or
+        ``"blue"`` (what ``"auto"`` chose, when it was given).
+    channel_scores : dict or None
+        With ``"auto"`` on colour footage: each candidate's score (how strongly moving
+        things stand out, :func:`vidtrack.footage.channel.settle_channel`).
 
     Notes
     -----
@@ -180,9 +217,13 @@ class FrameSource:
     #: Short name of the format, used in messages and ``to_dict``.
     kind = "frames"
 
-    def __init__(self, path, *, fps=None):
+    def __init__(self, path, *, fps=None, channel="luma"):
         self.path = Path(path)
         self._fps_given = _check_fps(fps)
+        self._channel_given = _check_channel(channel)
+        self._channel = "luma"        # while opening; settled by _settle_channel
+        self._raw = None
+        self.channel_scores = None
         self._closed = False
         self._start = 0
         self._stop = 0
@@ -209,6 +250,34 @@ class FrameSource:
 
     def _close(self):
         pass
+
+    # -- the channel ------------------------------------------------------------------
+    def _grey(self, image):
+        """A decoded frame as the source gives it: the grey image of its channel (the
+        readers pass every decoded frame through here)."""
+        if self._raw is not None:
+            self._raw.append(image)
+        return to_grey(image, self._channel)
+
+    def _raw_frame(self, k):
+        """File frame ``k`` as decoded, before it is made grey (for the channel checks)."""
+        self._raw = []
+        try:
+            self._read_file_frame(k)
+            return self._raw[-1]
+        finally:
+            self._raw = None
+
+    def _settle_channel(self):
+        """Settle the channel given, once the source is set up (readers call it last):
+        a colour channel of grey footage is refused, ``"auto"`` chooses one."""
+        if self._channel_given == "luma":
+            return
+        from vidtrack.footage.channel import settle_channel
+
+        self._channel, self.channel_scores, notes = settle_channel(self, self._channel_given,
+                                                                   to_grey)
+        self.notes += notes
 
     # -- set-up used by subclasses --------------------------------------------------
     def _set_range(self, n_file, frames):
@@ -247,6 +316,10 @@ class FrameSource:
     @property
     def bit_depth(self):
         return self._bit_depth
+
+    @property
+    def channel(self):
+        return self._channel
 
     @property
     def fps_given(self):
@@ -340,6 +413,7 @@ class FrameSource:
             "fps": self.fps,
             "fps_container": self.fps_container,
             "time_source": self.time_source,
+            "channel": self.channel,
             "notes": list(self.notes),
         }
 

@@ -41,7 +41,7 @@ import numpy as np
 
 from vidtrack._atomic import atomic_path
 from vidtrack.errors import SourceError
-from vidtrack.footage.base import FrameSource, to_grey
+from vidtrack.footage.base import FrameSource
 from vidtrack.footage.timebase import stamp_rate
 
 __all__ = ["CineSource", "write_cine", "pack_10bit", "unpack_10bit", "pack_12bit",
@@ -161,6 +161,9 @@ class CineSource(FrameSource):
         Half-open range of 0-based file frame indices (not image numbers).
     use_time_stamps : bool, optional
         Time frames by the per-image time stamps when the file has them (default).
+    channel : str, optional
+        ``"luma"`` (default), ``"red"``, ``"green"``, ``"blue"`` or ``"auto"``
+        (:mod:`vidtrack.footage.channel`); a colour channel needs interpolated colour.
 
     Attributes
     ----------
@@ -204,8 +207,8 @@ class CineSource(FrameSource):
 
     kind = "cine"
 
-    def __init__(self, path, *, fps=None, frames=None, use_time_stamps=True):
-        super().__init__(path, fps=fps)
+    def __init__(self, path, *, fps=None, frames=None, use_time_stamps=True, channel="luma"):
+        super().__init__(path, fps=fps, channel=channel)
         if not self.path.is_file():
             raise SourceError(f"{self.path}: no such file")
         try:
@@ -216,6 +219,7 @@ class CineSource(FrameSource):
             self._parse(use_time_stamps)
             self._set_range(self.header["image_count"], frames)
             self._check_complete()
+            self._settle_channel()
         except BaseException:
             self._f.close()
             raise
@@ -482,10 +486,10 @@ class CineSource(FrameSource):
         if not self._top_down:
             image = image[::-1]
         if image.ndim == 3 and image.shape[2] == 3:
-            return to_grey(np.ascontiguousarray(image).astype(self._dtype, copy=False))
+            return self._grey(np.ascontiguousarray(image).astype(self._dtype, copy=False))
         if image.ndim == 3:
             image = image[:, :, 0]
-        return np.array(image, dtype=self._dtype, order="C")
+        return self._grey(np.array(image, dtype=self._dtype, order="C"))
 
     def _close(self):
         self._f.close()

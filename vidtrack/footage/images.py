@@ -9,7 +9,7 @@ import struct
 import numpy as np
 
 from vidtrack.errors import SourceError
-from vidtrack.footage.base import FrameSource, _cv2, natural_key, to_grey
+from vidtrack.footage.base import FrameSource, _cv2, natural_key
 
 __all__ = ["IMAGE_SUFFIXES", "ImageFolderSource"]
 
@@ -126,17 +126,22 @@ class ImageFolderSource(FrameSource):
         Capture rate in frames/s (an image folder has no rate of its own).
     frames : (int, int), optional
         Half-open range of 0-based indices into the sorted file list.
+    channel : str, optional
+        ``"luma"`` (default), ``"red"``, ``"green"``, ``"blue"`` or ``"auto"``
+        (:mod:`vidtrack.footage.channel`).
 
     Raises
     ------
     SourceError
         The folder has no images, an image cannot be decoded, or the images differ in
-        size or dtype (the message names the first offending file and the first file).
+        size or dtype (the message names the first offending file and the first file);
+        a colour channel of grey images.
 
     Notes
     -----
     Files are read with ``IMREAD_UNCHANGED``: 16-bit png/tif stay ``uint16``
-    (``bit_depth`` 16), 8-bit stay ``uint8``; colour is converted to grey. Sizes and
+    (``bit_depth`` 16), 8-bit stay ``uint8``; colour is converted to grey (or to the
+    ``channel`` given). Sizes and
     bit depths are checked for every file when the folder is opened, from the file
     headers (png, bmp, jpeg, tiff; a file whose header says nothing clear is decoded).
     Only ``uint8`` and ``uint16`` images are accepted.
@@ -144,8 +149,8 @@ class ImageFolderSource(FrameSource):
 
     kind = "image folder"
 
-    def __init__(self, path, *, fps=None, frames=None):
-        super().__init__(path, fps=fps)
+    def __init__(self, path, *, fps=None, frames=None, channel="luma"):
+        super().__init__(path, fps=fps, channel=channel)
         if not self.path.is_dir():
             raise SourceError(f"{self.path}: no such folder")
         files = [p for p in self.path.iterdir()
@@ -160,6 +165,7 @@ class ImageFolderSource(FrameSource):
         self._fps_container = None
         self._check_all()
         self._set_range(len(self._files), frames)
+        self._settle_channel()
 
     @property
     def files(self):
@@ -179,7 +185,10 @@ class ImageFolderSource(FrameSource):
         if image.dtype not in (np.uint8, np.uint16):
             raise SourceError(f"{path}: {image.dtype} pixels are not supported; expected 8- or "
                               "16-bit unsigned integer images")
-        return to_grey(image)
+        try:
+            return self._grey(image)
+        except SourceError as exc:       # a grey image among colour ones
+            raise SourceError(f"{path}: {exc}") from None
 
     def _mismatch(self, path, shape, dtype):
         first = self._files[0]

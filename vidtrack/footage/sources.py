@@ -7,14 +7,14 @@ The .cine reader is imported only when a .cine file is opened.
 from pathlib import Path
 
 from vidtrack.errors import SourceError
-from vidtrack.footage.base import _check_fps, _check_range
+from vidtrack.footage.base import _check_channel, _check_fps, _check_range
 from vidtrack.footage.images import ImageFolderSource
 from vidtrack.footage.video import VideoSource
 
 __all__ = ["open_source"]
 
 
-def open_source(path, *, fps=None, frames=None, use_time_stamps=True):
+def open_source(path, *, fps=None, frames=None, use_time_stamps=True, channel="luma"):
     """Open footage as a :class:`FrameSource`, choosing the reader by what ``path`` is.
 
     Parameters
@@ -33,6 +33,12 @@ def open_source(path, *, fps=None, frames=None, use_time_stamps=True):
     use_time_stamps : bool, optional
         False ignores a .cine's time stamps and times frames by ``fps`` (or the setup
         FrameRate).
+    channel : str, optional
+        The grey image the frames are (``scene.toml`` ``views.<view>.channel``):
+        ``"luma"`` (default, BT.601 luma of colour footage), ``"red"``, ``"green"``,
+        ``"blue"`` (that channel of colour footage), or ``"auto"``: the one in which
+        moving things stand out most, chosen on opening from frames spread over the
+        range and named in ``source.notes`` (:mod:`vidtrack.footage.channel`).
 
     Returns
     -------
@@ -45,17 +51,20 @@ def open_source(path, *, fps=None, frames=None, use_time_stamps=True):
     ------
     SourceError
         Missing path, unreadable or truncated footage (the message names the frame),
-        a bad ``fps`` or ``frames``, or nothing left after the range.
+        a bad ``fps``, ``frames`` or ``channel``, nothing left after the range, or a
+        colour channel of grey footage.
     """
     path = Path(path)
     _check_fps(fps)
     _check_range(frames)
+    _check_channel(channel)
     if not path.exists():
         raise SourceError(f"{path}: no such file or folder")
     if path.is_dir():
-        return ImageFolderSource(path, fps=fps, frames=frames)
+        return ImageFolderSource(path, fps=fps, frames=frames, channel=channel)
     if path.suffix.lower() == ".cine":
         from vidtrack.footage.cine import CineSource
 
-        return CineSource(path, fps=fps, frames=frames, use_time_stamps=use_time_stamps)
-    return VideoSource(path, fps=fps, frames=frames)
+        return CineSource(path, fps=fps, frames=frames, use_time_stamps=use_time_stamps,
+                          channel=channel)
+    return VideoSource(path, fps=fps, frames=frames, channel=channel)

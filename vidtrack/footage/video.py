@@ -7,6 +7,9 @@ time. That path is taken only when, on frame 0, the luma plane equals the grey o
 decoded BGR frame to within one grey level (the two differ only by rounding, and by
 clipping in strongly saturated colours); otherwise (limited-range YUV as MPEG-4's,
 packed RGB, any decoder that does not give the plane) the BGR frame is converted.
+The luma plane is read only when the frames are luma: with a colour ``channel`` the
+BGR frame is decoded (and ``"auto"`` decodes BGR to choose; when it chooses luma the
+plane is then used as for ``"luma"``).
 """
 
 import numpy as np
@@ -32,15 +35,20 @@ class VideoSource(FrameSource):
         Capture rate in frames/s; wins over the container's rate.
     frames : (int, int), optional
         Half-open range of 0-based file frame indices.
+    channel : str, optional
+        ``"luma"`` (default), ``"red"``, ``"green"``, ``"blue"`` or ``"auto"``
+        (:mod:`vidtrack.footage.channel`).
 
     Raises
     ------
     SourceError
-        The file cannot be opened as a video, or its first frame cannot be decoded.
+        The file cannot be opened as a video, or its first frame cannot be decoded; a
+        colour channel of a grey video.
 
     Notes
     -----
-    Frames are 8-bit (OpenCV decodes to 8-bit BGR), converted to grey. Iteration reads
+    Frames are 8-bit (OpenCV decodes to 8-bit BGR), converted to grey (or to the
+    ``channel`` given). Iteration reads
     sequentially with its own decoder. Random access decodes forward for short
     forward jumps and seeks otherwise; the first seek is checked against sequential
     decoding (a one-time cost proportional to the frame index) and, if the container
@@ -51,8 +59,8 @@ class VideoSource(FrameSource):
 
     kind = "video"
 
-    def __init__(self, path, *, fps=None, frames=None):
-        super().__init__(path, fps=fps)
+    def __init__(self, path, *, fps=None, frames=None, channel="luma"):
+        super().__init__(path, fps=fps, channel=channel)
         cv2 = _cv2()
         self._luma = False
         self._cap = self._open_capture()
@@ -67,10 +75,8 @@ class VideoSource(FrameSource):
                               "unsupported video)")
         self._cursor = 1
         grey = to_grey(image)
-        raw = self._luma_capture(grey)
-        if raw is not None:            # every capture from here on gives the plane
-            self._cap.release()
-            self._cap, self._luma = raw, True
+        if channel == "luma":
+            self._use_luma_plane(grey)
         self._shape = tuple(grey.shape)
         self._dtype = grey.dtype
         self._bit_depth = 8 * grey.dtype.itemsize
@@ -80,6 +86,21 @@ class VideoSource(FrameSource):
         self._n_file = n
         self._seek_exact = None
         self._set_range(n, frames)
+        try:
+            self._settle_channel()
+        except BaseException:
+            self._cap.release()
+            raise
+        if channel == "auto" and self.channel == "luma":
+            self._use_luma_plane(grey)
+
+    def _use_luma_plane(self, grey):
+        """Read the decoder's luma plane from here on if it gives one equal to ``grey``
+        (frame 0 decoded to BGR and converted); the capture is then past frame 0."""
+        raw = self._luma_capture(grey)
+        if raw is not None:            # every capture from here on gives the plane
+            self._cap.release()
+            self._cap, self._luma, self._cursor = raw, True, 1
 
     def _open_capture(self):
         cv2 = _cv2()
@@ -130,7 +151,7 @@ class VideoSource(FrameSource):
             raise SourceError(
                 f"{self.path}: frame {k} could not be decoded (the container says "
                 f"{self._n_file} frames; the file is truncated or corrupt)")
-        grey = image[:self._shape[0]] if self._luma else to_grey(image)
+        grey = image[:self._shape[0]] if self._luma else self._grey(image)
         if grey.shape != self._shape or grey.dtype != self._dtype:
             raise SourceError(f"{self.path}: frame {k} is {grey.shape} {grey.dtype}, frame 0 "
                               f"was {self._shape} {self._dtype}")

@@ -231,7 +231,7 @@ def contact_sheet_html(scene, folder, tracks, paths):
                 continue
             src_path = view.source if folder == scene.folder else view.source_in(folder)
             try:
-                opened[name] = open_source(src_path, fps=view.fps)
+                opened[name] = open_source(src_path, fps=view.fps, channel=view.channel)
             except Exception as exc:       # noqa: BLE001 (footage moved or unreadable)
                 missing.append(f"view {name}: the footage cannot be read ({exc})")
         if not opened:

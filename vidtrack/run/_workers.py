@@ -31,16 +31,25 @@ def track_view(scene, folder, name, settings, *, quiet=True, cancel=None, parts=
     """Track view ``name`` of ``scene`` in ``folder`` with the tracker ``settings``.
 
     Returns the Track, or with ``parts`` its fields (:func:`vidtrack.track.tracker.track_parts`:
-    no pandas needed).
+    no pandas needed). What ``channel = "auto"`` chose, and why, leads its notes.
     """
+    import dataclasses
+
     from vidtrack.footage import open_source
     from vidtrack.track.tracker import track, track_parts
 
     view = scene.views[name]
-    with open_source(source_of(view, scene, folder), fps=view.fps, frames=view.frames) as src:
-        return (track_parts if parts else track)(src, view=name, quiet=quiet, cancel=cancel,
-                                                 target=getattr(view, "target", None),
-                                                 **settings)
+    with open_source(source_of(view, scene, folder), fps=view.fps, frames=view.frames,
+                     channel=view.channel) as src:
+        out = (track_parts if parts else track)(src, view=name, quiet=quiet, cancel=cancel,
+                                                target=getattr(view, "target", None),
+                                                **settings)
+        said = tuple(n for n in src.notes if n.startswith("channel "))
+    if not said:
+        return out
+    if parts:
+        return dict(out, notes=said + tuple(out["notes"]))
+    return dataclasses.replace(out, notes=said + tuple(out.notes))
 
 
 #: What the stages after tracking import (about 0.8 s of CPU).

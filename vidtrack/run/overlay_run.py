@@ -159,8 +159,8 @@ def overlay_run(run_dir, *, views=None, every=1, scale=1.0, frame_range=None, qu
             for n in drawable:
                 view = scene.views[n]
                 with about(label, view=n), open_source(source_of(view, scene, folder),
-                                                       fps=view.fps,
-                                                       frames=frame_range) as src:
+                                                       fps=view.fps, frames=frame_range,
+                                                       channel=view.channel) as src:
                     notes += [f"{label}, view {n}: {s}" for s in src.notes]
                     notes += [f"{label}, view {n}: {s}" for s in
                               (paths[n].notes if n in paths else ())]

@@ -7,11 +7,12 @@ until the sources pass and nothing tracked until everything passes:
    refused before anything opens it: reading one blocks or never ends);
 2. no two views read the same footage (a cross-check: ``accept_disagreement`` lets it
    through as a warning);
-3. every source opens, its frame range is noted when clipped at the end, a
-   ``sync_frame`` lies among the frames used, and so do the frames of a view's
-   corrections (an ``exclude_frames`` range holds some of them, every manual point's
-   frame is one of them; the manual points file is read and checked for each run or
-   throw folder before any source is opened);
+3. every source opens (a colour ``channel`` of grey footage is refused), its frame
+   range is noted when clipped at the end, a ``sync_frame`` lies among the frames
+   used, and so do the frames of a view's corrections (an ``exclude_frames`` range
+   holds some of them, every manual point's frame is one of them; the manual points
+   file is read and checked for each run or throw folder before any source is
+   opened);
 4. the outputs can be written: ``<run>/vidtrack/`` (and each throw's folder in it) is a
    folder or can be made one, a probe file can be created and removed there (a folder
    made for the probe is removed again), and no output name (fit.json, tracks.h5, ...)
@@ -193,12 +194,16 @@ def _source_of(view, scene, folder):
 
 
 def _open_and_check(view, path, label, *, scene=None, folder=None):
-    """Open a view's footage: its frame count, a clipped range, the sync frame, and the
-    frames of its corrections (excluded ranges, manual points)."""
+    """Open a view's footage: its frame count, a clipped range, the sync frame, the
+    frames of its corrections (excluded ranges, manual points), and that a colour
+    ``channel`` has colour to take (``"auto"`` refuses nothing: it chooses when the
+    footage is tracked, so it is not made to choose here too)."""
     from vidtrack.footage import open_source
 
     notes = []
-    with open_source(path, fps=view.fps, frames=getattr(view, "frames", None)) as src:
+    channel = getattr(view, "channel", "luma")
+    with open_source(path, fps=view.fps, frames=getattr(view, "frames", None),
+                     channel="luma" if channel == "auto" else channel) as src:
         numbers = src.frame_numbers
         first, last = int(numbers[0]), int(numbers[-1])
         for note in src.notes:

@@ -97,6 +97,19 @@ class _Checker:
             self.fail(path, "must not be empty")
         return value
 
+    def choice(self, table, key, path, allowed, *, default):
+        """One of the strings ``allowed`` (``default`` when the key is absent)."""
+        if key not in table:
+            return default
+        value = table[key]
+        if isinstance(value, str) and value in allowed:
+            return value
+        near = (difflib.get_close_matches(value.lower(), allowed, n=1)
+                if isinstance(value, str) else [])
+        hint = f" (did you mean {near[0]!r}?)" if near else ""
+        self.fail(path, "must be one of " + ", ".join(f'"{a}"' for a in allowed)
+                  + f", got {_type_name(value)} {_show(value)}{hint}")
+
     def pair(self, table, key, path, *, required=False, what="[u, v] in pixels"):
         if key not in table:
             if required:

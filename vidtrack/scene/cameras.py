@@ -27,6 +27,7 @@ from pathlib import Path
 from calibration.errors import InputError
 from vidtrack.scene._check import _resolve, _show, _type_name
 from vidtrack.scene.corrections import corrections_to_dict
+from vidtrack.scene.model import CHANNELS, channel_to_dict
 
 __all__ = ["WorldSpec", "CameraView", "CAMERA_VIEW_KEYS", "POINT_FORMATS", "parse_world",
            "parse_camera_view"]
@@ -36,8 +37,8 @@ POINT_FORMATS = ("dltdv", "tracker", "csv")
 
 #: Keys of a calibrated view's table.
 CAMERA_VIEW_KEYS = ("source", "points", "fps", "dlt", "projection", "intrinsics", "distortion",
-                    "calibration", "pixel_origin", "frames", "sync_frame", "target",
-                    "exclude_frames", "manual_points")
+                    "calibration", "pixel_origin", "frames", "sync_frame", "channel",
+                    "target", "exclude_frames", "manual_points")
 _POINT_KEYS = ("file", "format", "camera", "point")
 
 
@@ -100,6 +101,8 @@ class CameraView:
     pixel_origin : str
     frames : tuple of int or None
     sync_frame : int or str
+    channel : str
+        The grey image tracked (footage only), as for the orthogonal views.
     target : (int, (float, float)) or None
         As for the orthogonal views: the object at that pixel of that frame (footage
         only; a view that gives points is not tracked).
@@ -120,6 +123,7 @@ class CameraView:
     frames: tuple | None = None
     sync_frame: object = "auto"
     calibration: Path | None = None
+    channel: str = "luma"
     target: tuple | None = None
     exclude_frames: tuple = ()
     manual_points: Path | None = None
@@ -145,7 +149,7 @@ class CameraView:
         if self.frames is not None:
             out["frames"] = list(self.frames)
         out["sync_frame"] = self.sync_frame
-        return corrections_to_dict(self, out)
+        return corrections_to_dict(self, channel_to_dict(self, out))
 
 
 def _vector(ck, table, key, path, *, required):
@@ -303,16 +307,18 @@ def parse_camera_view(ck, name, view, folder, *, fps_range, frames_and_sync):
     frames, sync = frames_and_sync(ck, view, path)
     from vidtrack.scene.corrections import parse_exclude, parse_manual_points, parse_target
 
+    channel = ck.choice(view, "channel", f"{path}.channel", CHANNELS, default="luma")
     target = parse_target(ck, view, path, frames)
-    if target is not None and points is not None:
-        ck.fail(f"{path}.target", "goes with source (footage to track), not points: a view "
-                "that gives points is not tracked")
+    for key, given in (("channel", "channel" in view), ("target", target is not None)):
+        if given and points is not None:
+            ck.fail(f"{path}.{key}", "goes with source (footage to track), not points: a "
+                    "view that gives points is not tracked")
     exclude = parse_exclude(ck, view, path, frames)
     manual, manual_text = parse_manual_points(ck, view, path, folder, frames, exclude)
     source = (points.file if points else
               (_resolve(folder, source_text) if folder is not None else Path(source_text)))
     return CameraView(name=name, source=source, source_text=source_text, points=points,
                       fps=fps, camera=camera, model=model, pixel_origin=origin, frames=frames,
-                      sync_frame=sync, calibration=calib, target=target,
+                      sync_frame=sync, calibration=calib, channel=channel, target=target,
                       exclude_frames=exclude, manual_points=manual,
                       manual_points_text=manual_text)

@@ -37,11 +37,14 @@ FPS_RANGE = (0.1, 1e7)
 #: Camera distances accepted (``camera_distance_m``), m: a camera nearer than 1 cm or
 #: farther than 100 km from the throw is a typo.
 CAMERA_DISTANCE_RANGE_M = (0.01, 1e5)
+#: What a view's ``channel`` may be: the grey image the tracker sees (BT.601 luma, one
+#: colour channel, or ``"auto"``: the one in which moving things stand out most).
+CHANNELS = ("luma", "red", "green", "blue", "auto")
 
 _TOP_KEYS = ("schema", "run", "factors", "physics", "straw", "machine", "world", "views")
 _VIEW_KEYS = ("source", "fps", "axes", "origin_px", "ruler", "m_per_px", "calibration",
-              "camera_distance_m", "frames", "sync_frame", "target", "exclude_frames",
-              "manual_points")
+              "camera_distance_m", "frames", "sync_frame", "channel", "target",
+              "exclude_frames", "manual_points")
 
 
 # --------------------------------------------------------------------------- results
@@ -177,6 +180,10 @@ class ViewSpec:
         Half-open range ``(first, end)`` of 0-based frame indices to use; None: all.
     sync_frame : int or str
         Frame of this view at which t = 0, or ``"auto"`` (find it).
+    channel : str
+        The grey image tracked, one of :data:`CHANNELS`: ``"luma"`` (default: BT.601
+        luma of colour footage), ``"red"``, ``"green"``, ``"blue"`` (that channel), or
+        ``"auto"`` (chosen when the footage is opened; see docs/scene.md).
     camera_distance_m : float or None
         Distance (m) from the camera's centre to the plane where the scale holds (the
         plane through the world origin parallel to the image: Z = 0 for ``front``,
@@ -212,6 +219,7 @@ class ViewSpec:
     camera: object = None
     frames: tuple | None = None
     sync_frame: object = "auto"
+    channel: str = "luma"
     camera_distance_m: float | None = None
     target: tuple | None = None
     exclude_frames: tuple = ()
@@ -273,7 +281,15 @@ class ViewSpec:
         if self.frames is not None:
             out["frames"] = list(self.frames)
         out["sync_frame"] = self.sync_frame
-        return corrections_to_dict(self, out)
+        return corrections_to_dict(self, channel_to_dict(self, out))
+
+
+def channel_to_dict(view, out):
+    """Add a view's ``channel`` to ``out`` (its table as written) unless it is the default
+    ``"luma"``: a scene that does not set it keeps its content and so its hash."""
+    if view.channel != "luma":
+        out["channel"] = view.channel
+    return out
 
 
 @dataclass(frozen=True)

@@ -36,6 +36,7 @@ from vidtrack.scene.model import (
     _VIEW_KEYS,
     AIR_DENSITY_KG_M3,
     CAMERA_DISTANCE_RANGE_M,
+    CHANNELS,
     CP_TOLERANCE,
     FPS_RANGE,
     GRAVITY_M_S2,
@@ -215,6 +216,7 @@ def _parse_view(ck, name, view, folder):
                          within=(*CAMERA_DISTANCE_RANGE_M, "m"))
 
     frames, sync = _frames_and_sync(ck, view, path)
+    channel = ck.choice(view, "channel", f"{path}.channel", CHANNELS, default="luma")
     target = _parse_target(ck, view, path, frames)
     exclude = parse_exclude(ck, view, path, frames)
     manual, manual_text = parse_manual_points(ck, view, path, folder, frames, exclude)
@@ -222,9 +224,9 @@ def _parse_view(ck, name, view, folder):
     return ViewSpec(name=name, source=source, source_text=source_text, fps=fps, axes=axes,
                     origin_px=origin, scale=scale, ruler=ruler, m_per_px_given=m_given,
                     calibration=calib_path, calibration_text=calib_text, camera=camera,
-                    frames=frames, sync_frame=sync, camera_distance_m=distance,
-                    target=target, exclude_frames=exclude, manual_points=manual,
-                    manual_points_text=manual_text)
+                    frames=frames, sync_frame=sync, channel=channel,
+                    camera_distance_m=distance, target=target, exclude_frames=exclude,
+                    manual_points=manual, manual_points_text=manual_text)
 
 
 def _example_axes(name):
