@@ -164,7 +164,7 @@ def test_auto_chooses_red_and_says_why(colour):
     tr, notes, got = _track(path, "auto")
     assert got == "red"
     said = [n for n in notes if n.startswith("channel auto:")]
-    assert len(said) == 1 and said[0].startswith("channel auto: red, "), notes
+    assert len(said) == 1 and said[0].startswith("channel auto: red ("), notes
     scores = {c: float(s) for c, s in re.findall(r"(luma|red|green|blue) ([0-9.]+)", said[0])}
     assert set(scores) == {"luma", "red", "green", "blue"}
     assert max(scores, key=scores.get) == "red" and min(scores, key=scores.get) == "luma"
