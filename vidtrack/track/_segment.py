@@ -618,7 +618,10 @@ def measure(work, blob, level, *, width=None, length=None):
     Unreadable pixels (``|level - background|`` below :data:`READABLE` times the
     threshold) inside a rod along the readable part's axis get the rod's coverage;
     other unreadable pixels of the support get the normalised average of their
-    readable neighbours.
+    readable neighbours. A rod whose eroded detections hold pixels of the other
+    polarity (at least 3 and 5 % of them: a highlight along a dark straw) is measured by
+    :func:`measure_mixed` instead, its ``off_axis`` then 0 (no check for a rod across
+    it in those frames).
     """
     others = work.others
     support = cv2.dilate(work.sel, _K3)
