@@ -384,3 +384,32 @@ def test_bench_track_quick_writes_table_and_plot(tmp_path):
     ours = rms.pop("vidtrack")
     assert ours <= 0.25
     assert all(ours < other for name, other in rms.items() if name != "decode only")
+
+
+# --------------------------------------------------------------------- compression specks
+def test_specks_counts_weak_sets_of_pixels_not_noise_nor_objects():
+    """Gaussian noise at the threshold of 5 sigma makes no speck; each block re-encoded a
+    few grey levels off (beyond the threshold, below twice it) is one; an object (some
+    pixels far beyond) is none, and neither is a set of fewer than 4 pixels. Raising the
+    threshold above the blocks' offset leaves none."""
+    rng = np.random.default_rng(3)
+    shape = (300, 400)
+    sigma = 1.0
+    bg = Background(image=np.full(shape, 60.0, np.float32), noise_sigma=sigma,
+                    noise_map=np.zeros(shape, np.float32), n_samples=25)
+    seg = Segmenter(bg, k_sigma=5.0)
+    thr = float(seg.thr.max())                    # 5.15 grey levels
+    frames = [np.clip(np.rint(60.0 + rng.normal(0.0, sigma, shape)), 0, 255).astype(np.uint8)
+              for _ in range(5)]
+    assert all(seg.specks(f) == 0 for f in frames)
+    f = frames[0].astype(float)
+    for k in range(12):                           # 12 blocks 1.5 thresholds off
+        y, x = 10 + 24 * k, 20 + 30 * k
+        f[y:y + 6, x:x + 6] += (1 if k % 2 else -1) * 1.5 * thr
+    f[200:203, 300:301] += 1.5 * thr              # 3 pixels: too few
+    f[250:262, 40:52] += 5.0 * thr                # an object
+    f = np.clip(np.rint(f), 0, 255).astype(np.uint8)
+    assert seg.specks(f) == 12
+    assert seg.specks(f, at_least=1000) == 0      # cannot hold that many: not labelled
+    seg.raise_threshold(2.0)
+    assert seg.scale == 2.0 and seg.specks(f) == 0

@@ -51,6 +51,10 @@ _CROP_MARGIN = 3
 #: Brightness changes (relative) below this are taken as no flicker.
 _GAIN_TOL = 0.01
 
+#: A speck (:meth:`Segmenter.specks`) has at least this many pixels: a smaller set is
+#: never taken for an object (the tracker's ``min_area_px``, 4 by default).
+SPECK_PX = 4
+
 
 @dataclass
 class Blob:
@@ -103,7 +107,8 @@ class Segmenter:
         self.top = float(np.iinfo(dtype).max) if dtype.kind in "ui" else 65535.0
         self.dtype = dtype
         self.bg_int = np.clip(np.rint(self.bg), 0, self.top).astype(dtype)
-        self.thr_int = np.clip(np.ceil(self.thr), 1, self.top).astype(dtype)
+        self.scale = 1.0
+        self._set_thr_int()
         rows, cols = self.shape
         self.decimate = max(1, int(np.ceil(max(rows, cols) / 320.0)))
         d = self.decimate
@@ -115,6 +120,40 @@ class Segmenter:
         grid &= self.bg > max(8.0, 0.05 * float(self.bg.max()))
         self.gain_index = np.flatnonzero(grid)
         self.gain_ref = self.bg.reshape(-1)[self.gain_index]
+
+    def _set_thr_int(self):
+        self.thr_int = np.clip(np.ceil(self.thr), 1, self.top).astype(self.dtype)
+        self.thr2_int = np.clip(np.ceil(2.0 * self.thr), 1, self.top).astype(self.dtype)
+
+    # ---------------------------------------------------------------- compression specks
+    def specks(self, frame, gain=1.0, *, at_least=0):
+        """How many specks ``frame`` holds: sets of at least :data:`SPECK_PX` connected
+        pixels beyond the threshold none of which changed by twice the threshold.
+
+        Footage compressed hard re-encodes blocks of the static scene by a few grey levels
+        now and then (at a key frame, when the bit rate runs short): noise far out in the
+        tail of what the frame differences measured, thousands of specks per frame, among
+        which a small object is one of many and to which it merges. An object is not a
+        speck: some of its pixels change by far more (a faint object's fragments can be).
+        Returns 0 without labelling the frame when fewer than ``at_least`` specks could
+        fit in the weak pixels (beyond the threshold, not beyond twice it).
+        """
+        rows, cols = self.shape
+        ad = cv2.absdiff(frame, self._bg_int(0, rows, 0, cols, gain))
+        mask = cv2.compare(ad, self.thr_int, cv2.CMP_GT)
+        strong = cv2.compare(ad, self.thr2_int, cv2.CMP_GT)
+        if cv2.countNonZero(mask) - cv2.countNonZero(strong) < SPECK_PX * max(at_least, 1):
+            return 0
+        n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        hit = np.zeros(n, bool)
+        hit[labels[strong > 0]] = True
+        return int(np.count_nonzero((stats[1:, 4] >= SPECK_PX) & ~hit[1:]))
+
+    def raise_threshold(self, factor):
+        """Multiply the threshold by ``factor`` from now on (:attr:`scale`: the product)."""
+        self.scale *= float(factor)
+        self.thr = (self.thr * np.float32(factor)).astype(np.float32)
+        self._set_thr_int()
 
     # ---------------------------------------------------------------- global gain
     def gain(self, frame):

@@ -13,7 +13,9 @@ How it works (details in ``docs/tracker.md``):
    spread over the first part of the footage (frames the pass decodes anyway: no
    second decoding), the noise from the MAD of frame differences, a per-pixel noise
    map, a floor for compressed video that repeats blocks, and the extra noise of edges
-   and texture (a shaking phone); the threshold is ``k_sigma`` times the noise.
+   and texture (a shaking phone); the threshold is ``k_sigma`` times the noise. Every
+   16 frames the specks of hard compression (weak sets of changed pixels) are counted;
+   where a frame holds too many the threshold is raised, and the notes say so.
 2. **Finding the object** while it is not followed: moving blobs of the whole frame
    (block-reduced, cheap), each polarity and, where an object shows both, the whole,
    start tentative tracklets. The one thing moving is taken once steady; among several
@@ -22,7 +24,8 @@ How it works (details in ``docs/tracker.md``):
    and its parts give way; two objects tied together are one; the fastest by half
    again wins (a straw leaving the rotor); else the choice is ambiguous and the
    TrackError names the candidates with the ``target`` line to add. With a
-   ``target`` the object at that pixel is taken and followed both ways in time.
+   ``target`` the object at that pixel is taken (looked for there first, however many
+   larger things move elsewhere) and followed both ways in time.
 3. **Following it**: only a region of interest around the position predicted from the
    last clean positions is segmented; among its blobs the object is the one nearest the
    prediction within a gate (a speck is not it), changes are counted only *towards*
@@ -137,6 +140,19 @@ _WARMUP_BYTES = 96 * 1024 * 1024
 _BACK_BYTES = 128 * 1024 * 1024
 #: Boxes of moving pixels looked at per frame while searching (largest first).
 _SEARCH_BOXES = 16
+#: Specks (:meth:`~vidtrack.track._segment.Segmenter.specks`) a frame may hold per
+#: megapixel (and at least :data:`_SPECKS_MIN`) before the threshold is raised by
+#: :data:`_SPECK_STEP` at a time, up to :data:`_SPECK_MAX` times the noise's: Gaussian
+#: noise at 5 sigma makes none; the real clips at the measured noise make 16-85 (a ball
+#: toss), 170-430 (a classroom clip), 60-930 (phone clips of a bear) and about 1000 (a
+#: hard compressed 2048 x 1536 badminton camera, where a shuttlecock of 8 px is lost
+#: among them).
+_SPECKS_PER_MPX = 300
+_SPECKS_MIN = 20
+_SPECK_STEP = 1.25
+_SPECK_MAX = 8.0
+#: Frames between two counts of the specks.
+_SPECK_EVERY = 16
 #: Components per polarity and box measured while searching (largest first).
 _SEARCH_PARTS = 24
 
@@ -646,7 +662,9 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
         flight; :func:`vidtrack.world.orthogonal.merge_tracks` carries the release over from the
         ``front`` view through the shared X.
     k_sigma : float, optional
-        Segmentation threshold in multiples of the measured noise (default 5).
+        Segmentation threshold in multiples of the measured noise (default 5); raised
+        from the frame where hard compression's specks call for it (the notes say so,
+        and ``noise_sigma`` is then the raised noise).
     min_area_px : int, optional
         Smallest blob (pixels above threshold) that may be the straw.
     max_gap : int, optional
@@ -784,10 +802,16 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         clean[i] = fl == 0
         return fl
 
-    def search_blobs(i, frame, gain, level):
+    def search_blobs(i, frame, gain, level, near=None):
         boxes = seg.coarse(frame, gain)
         if not boxes:
             return []
+        if near is not None:
+            # the object named or just taken is looked for first, however many larger
+            # things move elsewhere (players, a crowd; boxes are taken largest first)
+            (nu, nv), reach = near
+            boxes.sort(key=lambda bx: max(bx[0] - nu, nu - bx[2], bx[1] - nv,
+                                          nv - bx[3], 0.0) > reach)
         pad = 2 * seg.decimate + 2
         if lost_state is not None:
             # a straw that was followed and lost is looked for only where it can be
@@ -1312,6 +1336,19 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                     break
             i -= 1
 
+    speck_limit = max(_SPECKS_MIN, _SPECKS_PER_MPX * rows * cols / 1e6)
+    specks_seen = []         # (frame, specks at the measured noise) where it was raised
+
+    def count_specks(i, frame):
+        gain = seg.gain(frame)
+        found = seg.specks(frame, gain, at_least=speck_limit)
+        first = found
+        while found > speck_limit and seg.scale * _SPECK_STEP <= _SPECK_MAX:
+            seg.raise_threshold(_SPECK_STEP)
+            found = seg.specks(frame, gain, at_least=speck_limit)
+        if found != first and not specks_seen:
+            specks_seen.append((fnums[i], first))
+
     def stream():
         while buffer:
             yield buffer.popleft()
@@ -1332,6 +1369,8 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
     for i, frame in enumerate(progress(stream() if cancel is None else checked(stream()),
                                        total=n, desc=f"track {view or ''}".strip(),
                                        quiet=quiet, unit="frame")):
+        if i % _SPECK_EVERY == 0:
+            count_specks(i, frame)
         if t_idx is not None and i < t_idx:
             # the target is named in a later frame: these frames are followed
             # backwards from it afterwards (the newest of them kept)
@@ -1364,7 +1403,13 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             fol = None
         level = None
         gain = seg.gain(frame)
-        blobs = search_blobs(i, frame, gain, level)
+        near = None
+        if i == t_idx:
+            near = (target[1], 0.0)
+        elif pinned is not None:
+            last = pinned.blobs[-1]
+            near = (pinned.predict(tau[i]), max(64.0, 8.0 * math.sqrt(last.mask_area)))
+        blobs = search_blobs(i, frame, gain, level, near)
         if blobs:
             moving_frames += 1
         if i == t_idx:
@@ -1413,12 +1458,17 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         if k0 is not None and (flags[first_fol.start:k0] & MERGED).any():
             follow_back(k0, back, first_fol, until_touch=True)
 
+    if seg.scale > 1.0:
+        at, found = specks_seen[0]
+        notes.append(f"threshold raised to {seg.scale:.3g} x the measured noise from frame "
+                     f"{at}: compression specks ({found} at the measured noise, more than "
+                     f"{speck_limit:.0f} in a frame of {rows * cols / 1e6:.2g} megapixels)")
     if not clean.any() and not np.isfinite(u).any():
         if moving_frames == 0:
             raise TrackError(
                 f"{name}: nothing moves in frames {fnums[0]}..{fnums[-1]}: no pixel differs "
                 f"from the background by more than {k_sigma:g} x the noise "
-                f"({background.noise_sigma:.2g} grey levels)")
+                f"({background.noise_sigma * seg.scale:.2g} grey levels)")
         raise TrackError(
             f"{name}: the straw never appears in frames {fnums[0]}..{fnums[-1]}: moving "
             f"blobs were seen in {moving_frames} frames, but none moved steadily over 3 "
@@ -1470,7 +1520,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
     return dict(columns=columns, view=view,
                 release_frame=None if rel is None else int(fnums[rel]),
                 release_note=rel_note, release_t_s=rel_t, fps=source.fps, frame_shape=shape,
-                noise_sigma=float(background.noise_sigma), k_sigma=float(k_sigma),
+                noise_sigma=float(background.noise_sigma * seg.scale), k_sigma=float(k_sigma),
                 straw_level=float(last_level[0]),
                 scatter_px=float(scatter) if np.isfinite(scatter) else float("nan"),
                 notes=tuple(notes))
