@@ -659,8 +659,8 @@ def measure(work, blob, level, *, width=None, length=None):
     other unreadable pixels of the support get the normalised average of their
     readable neighbours. A rod whose eroded detections hold pixels of the other
     polarity (at least 3 and 5 % of them: a highlight along a dark straw) is measured by
-    :func:`measure_mixed` instead, its ``off_axis`` then 0 (no check for a rod across
-    it in those frames).
+    :func:`measure_mixed` instead, its ``off_axis`` then read off its detections about
+    the body's axis.
     """
     others = work.others
     support = cv2.dilate(work.sel, _K3)
@@ -678,7 +678,6 @@ def measure(work, blob, level, *, width=None, length=None):
     if np.count_nonzero(lit) >= max(3, 0.05 * np.count_nonzero(work.sel)):
         measure_mixed(work, blob, rod=True)
         blob.level = level
-        blob.off_axis = 0.0
         return blob
     unread = sup & ~readable
     if unread.any():
@@ -739,6 +738,24 @@ def measure(work, blob, level, *, width=None, length=None):
     blob.level = level
     blob.off_axis = _off_axis(c, m, ang)
     return blob
+
+
+def _detections_off_axis(work, blob):
+    """:func:`_off_axis` of a rod measured by its body (:func:`measure_mixed`): of its
+    detections, each weighted by its change (up to the 90th percentile of them), about
+    the body's axis. What is attached across or beside the rod, and was closed into its
+    body, shows there."""
+    sel = work.sel.view(bool)
+    ad = np.abs(work.d)
+    if not sel.any() or not blob.area > 0:
+        return 0.0
+    top = np.float32(np.percentile(ad[sel], 90))
+    det = np.where(sel, np.minimum(ad / max(top, np.float32(1e-6)), np.float32(1.0)),
+                   np.float32(0.0)).astype(np.float32)
+    m = cv2.moments(det, False)
+    if not m["m00"] > 0:
+        return 0.0
+    return _off_axis(det, m, blob.angle)
 
 
 def _off_axis(c, m, ang):
@@ -1013,7 +1030,8 @@ def measure_mixed(work, blob, *, rod=None):
     is read signed against the polarity round it, so that noise and ringing average
     out instead of adding up. Where the highlight's blur
     cancels part of the edge the coverage reads low: the centre along the axis is then
-    taken halfway between the ends (:func:`_rod_ends_centre`).
+    taken halfway between the ends (:func:`_rod_ends_centre`). A rod's ``off_axis`` is
+    that of its detections about the body's axis (:func:`_detections_off_axis`).
     """
     sel = work.sel.view(bool)
     if not sel.any():
@@ -1071,6 +1089,7 @@ def measure_mixed(work, blob, *, rod=None):
     _from_moments(blob, c, work.origin)
     if blob.area > 0:
         _rod_ends_centre(blob, c, work.origin)
+        blob.off_axis = _detections_off_axis(work, blob)
     return blob
 
 

@@ -968,7 +968,8 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             fill = _rod_fill(b)
             odd = b.mask_area > 1.4 * med_area or (
                 not f.compact and med_fill is not None and fill is not None
-                and fill < 0.8 * med_fill) or (not f.compact and b.off_axis > OFF_AXIS_MAX)
+                and fill < 0.8 * med_fill) or (
+                    (not f.compact or f.rod) and b.off_axis > OFF_AXIS_MAX)
             fl = store(b.index, b, MERGED if (b.merged or odd) else 0)
             solid[b.index] = f.compact
             seeded[b.index] = True
@@ -1177,10 +1178,12 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 same_shape = False
             else:
                 same_shape = True
-            # and whatever the clean frames looked like, a rod has no coverage beyond
-            # its band away from its ends: arms of another rod across it do
-            if b.off_axis > OFF_AXIS_MAX:
-                same_shape = False
+        # and whatever the clean frames looked like, a rod has no coverage beyond its
+        # band away from its ends: arms of another rod across it or beside it do (also
+        # of a rod of both polarities, measured by its body)
+        rod_shape = not f.compact or f.rod
+        if rod_shape and b.off_axis > OFF_AXIS_MAX:
+            same_shape = False
         if grown:
             # grown since the last clean frame: a merge, unless it grew smoothly (the
             # straw turning out of an end-on view; the reference would otherwise stay
@@ -1190,8 +1193,8 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         # flagged, but its centroid is within a few pixels, so the prediction follows it
         # through a long ride (through a crossing with an object of its own size it
         # is predicted from its own clean motion alone)
-        slight = not f.compact and not same_shape and not same
-        if not f.compact and not same_shape:
+        slight = rod_shape and not same_shape and not same
+        if rod_shape and not same_shape:
             same = True
         x0, y0, x1, y1 = b.bbox
         others = [o for o in blobs if o.label not in group]
