@@ -25,6 +25,8 @@ of the rotor); otherwise the choice is ambiguous (:attr:`Acquirer.ambiguous`).
 
 import numpy as np
 
+from vidtrack.track._rods import rodlike
+
 #: Most clean points used for a prediction (a long baseline keeps the extrapolation
 #: through a crossing, tens of frames, from running away).
 HISTORY = 16
@@ -265,13 +267,6 @@ def _touch(a, b, gap=2):
     return ax0 <= bx1 + gap and bx0 <= ax1 + gap and ay0 <= by1 + gap and by0 <= ay1 + gap
 
 
-def _rodlike(b):
-    """A rod (long or thin: a straw), from its coverage's second moments."""
-    if not (np.isfinite(b.width) and np.isfinite(b.length)):
-        return True
-    return b.width < 4.0 or b.length >= 3.0 * b.width
-
-
 def _inside(a, b, gap=2):
     """``a``'s box lies within ``b``'s (grown by ``gap`` px)."""
     ax0, ay0, ax1, ay1 = a.bbox
@@ -291,7 +286,7 @@ def on_body(part, whole):
     du, dv = part.u - whole.u, part.v - whole.v
     x0, y0, x1, y1 = part.bbox
     if (np.isfinite(whole.angle) and np.isfinite(whole.length) and np.isfinite(whole.width)
-            and _rodlike(whole)):
+            and rodlike(whole)):
         ca, sa = np.cos(whole.angle), np.sin(whole.angle)
         across = abs(-du * sa + dv * ca)
         along = [(x - whole.u) * ca + (y - whole.v) * sa
@@ -312,7 +307,7 @@ def held(blob, blobs, *, ratio=2.0):
     if blob.polarity == 0:
         return False
     return any(b is not blob and b.polarity == -blob.polarity
-               and b.mask_area >= ratio * blob.mask_area and _rodlike(b)
+               and b.mask_area >= ratio * blob.mask_area and rodlike(b)
                and not (blob.width > b.width) and on_body(blob, b)
                for b in blobs)
 
@@ -595,7 +590,7 @@ class Acquirer:
                 continue
             if (ob.polarity != 0 and ob.polarity != own.polarity
                     and ob.mask_area > 3.0 * own.mask_area and not _inside(own, ob)
-                    and (_rodlike(own) or ob.mask_area > 10.0 * own.mask_area)):
+                    and (rodlike(own) or ob.mask_area > 10.0 * own.mask_area)):
                 continue
             if _co_moving(tr, other) and not _shadow_like(other, tr):
                 return True
@@ -607,7 +602,7 @@ class Acquirer:
         straw riding a blade moves with it until it leaves."""
         out = []
         for a in flying:
-            if _rodlike(a.blobs[-1]):     # a straw riding a blade is not tied to it
+            if rodlike(a.blobs[-1]):     # a straw riding a blade is not tied to it
                 out.append(a)
                 continue
             partners = []
@@ -616,7 +611,7 @@ class Acquirer:
                     continue
                 ab, bb = a.blobs[-1], b.blobs[-1]
                 size = np.sqrt(max(ab.mask_area, bb.mask_area))
-                if (bb.mask_area < 0.05 * ab.mask_area or _rodlike(bb)
+                if (bb.mask_area < 0.05 * ab.mask_area or rodlike(bb)
                         or _inside(bb, ab) or _inside(ab, bb)   # a part of it, or it of one
                         or not _touch(ab, bb, gap=size)
                         or not _co_moving(a, b) or _shadow_like(b, a) or _shadow_like(a, b)

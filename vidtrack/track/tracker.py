@@ -70,12 +70,10 @@ manual points has no such column.
 import copy
 import logging
 import math
-import statistics
 from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 
 from vidtrack.track import _refine
@@ -83,9 +81,13 @@ from vidtrack._progress import progress
 from vidtrack.track._segment import (Segmenter, edge_stats, measure, measure_mixed,
                                      measure_silhouette,
                                      measure_solid, other_behind, other_touching, read_level,
-                                     shade_background, trim_attached, trim_to_rod,
-                                     work_margin)
-from vidtrack.track._select import Acquirer, Intruders, Predictor, Tracklet, on_body
+                                     shade_background, trim_attached, work_margin)
+from vidtrack.track._follow import Follow
+from vidtrack.track._rods import (FILL_MIN, FILL_SEPARATE, OFF_AXIS_MAX, SEPARATE_FRAMES,
+                                  attached_across, rod_alone, rod_fill, rodlike_run)
+from vidtrack.track._select import Acquirer, Tracklet, on_body
+from vidtrack.track._target import ambiguity_message, target_blob, target_index
+from vidtrack.track._touch import edge_width, opposite_touching, shadow_beside
 from vidtrack.track.background import Background, estimate_background, sample_indices
 from vidtrack.errors import TrackError
 
@@ -115,23 +117,6 @@ FLAGS = {BORDER: "border", BLADE: "blade", MERGED: "merged", LOST: "lost",
 
 #: Columns of :attr:`Track.data`, in order.
 TRACK_COLUMNS = ("frame", "t_s", "u_px", "v_px", "area_px", "angle_rad", "length_px", "flags")
-
-#: A rod's coverage share beyond its band (``Blob.off_axis``) above which something is
-#: attached across it (0 for one rod, blurred or not; 0.1-0.17 for a thin rod crossing a
-#: straw at 40 degrees).
-OFF_AXIS_MAX = 0.04
-#: A rod whose coverage fills less than this fraction of what its clean frames filled
-#: (``area / (length x width)``) has something attached.
-FILL_MIN = 0.8
-#: ... and, within :data:`SEPARATE_FRAMES` frames of one with detections beyond its band
-#: (something attached: a tenth of its pixels or more), below this fraction: two rods
-#: drifting apart leave the shape half broken for a while.
-FILL_SEPARATE = 0.9
-SEPARATE_FRAMES = 10
-#: A rod measured on its own band (something attached cut away) is kept when its length
-#: and width are within these fractions of its clean frames'.
-ALONE_LENGTH_TOL = 0.10
-ALONE_WIDTH_TOL = 0.20
 
 #: Memory the start-of-footage buffer for the background may take (bytes).
 _WARMUP_BYTES = 96 * 1024 * 1024
@@ -297,134 +282,6 @@ def _name(view, source):
     return f"{getattr(source, 'path', 'footage')}"
 
 
-class _Follow:
-    """The running state of the follower (reference size, grey level, errors)."""
-
-    def __init__(self):
-        self.levels = deque(maxlen=9)
-        self.areas = deque(maxlen=9)
-        self.covs = deque(maxlen=9)      # coverage sums (px^2) of the clean frames
-        self.grown_run = []              # sizes of the grown frames since the last clean
-        self.cores = deque(maxlen=9)     # fully covered pixels of an object of one level
-        self.fills = deque(maxlen=9)     # a rod's area / (length x width)
-        self.uniforms = deque(maxlen=9)  # its share of such pixels inside its silhouette
-        self.last_cov = None
-        self.lengths = deque(maxlen=9)
-        self.widths = deque(maxlen=9)
-        self.errors = deque(maxlen=16)
-        self.pred = Predictor()
-        self.intruders = Intruders()
-        self.gap = 0
-        # (mask area, length) of the last frame followed, and whether every step since
-        # the last clean frame was small: a straw turning out of an end-on view grows
-        # smoothly from frame to frame, a merge jumps
-        self.last_size = None
-        self.smooth = True
-        self.cut_at = -10 ** 9           # the last frame with something beyond its band
-        # an object of both polarities (segmented so), and one measured by its
-        # silhouette (anything but a rod: the coverage by one grey level is a rod's)
-        self.mixed = False
-        self.compact = False
-        self.rod = False        # an object of both polarities whose clean frames are a rod
-        # (levels, areas, lengths, widths) of its first clean frames
-        self.snapshot = None
-
-    @property
-    def level(self):
-        return float(statistics.median(self.levels)) if self.levels else None
-
-    def ref(self, q, default):
-        return float(statistics.median(q)) if q else default
-
-    def _small_step(self, a1, l1, *, step=1.25, slack_px=12.0):
-        a0, l0 = self.last_size
-        if a1 > step * a0 + slack_px:
-            return False
-        max_dl = 1.0 + 0.15 * max(self.lengths) if self.lengths else np.inf
-        return not (np.isfinite(l0) and np.isfinite(l1) and l1 - l0 > max_dl)
-
-    def smooth_growth(self, blob):
-        """The blob's size reached from the last clean frame in small steps only.
-
-        From frame to frame since the last clean frame, this one included, the mask
-        area grows by at most 1.25 times plus 12 px (the edge pixels of a straw seen
-        end-on come and go with the noise), and the length by at most 1 px plus 0.15 of
-        the longest reference length: the straw turning, not another blob joining.
-        """
-        return (self.last_size is not None and self.smooth
-                and self._small_step(blob.mask_area, blob.length))
-
-    def become_mixed(self):
-        """Measure the object by its silhouette from now on (its sizes start again)."""
-        self.mixed = True
-        self.compact = True
-        self.areas.clear()
-        self.covs.clear()
-        self.last_cov = None
-        self.lengths.clear()
-        self.widths.clear()
-        self.last_size = None
-        self.smooth = True
-
-    def regrown(self, blob, *, frames=6, spread=1.3):
-        """``blob`` ends a run of ``frames`` consecutive grown frames of one size."""
-        self.grown_run.append((blob.mask_area, blob.area, blob.length, blob.width))
-        run = self.grown_run[-frames:]
-        if len(run) < frames:
-            return False
-        a = [r[0] for r in run]
-        return max(a) <= spread * min(a)
-
-    def relearn(self):
-        """Take the last grown frames' sizes as the reference."""
-        run = self.grown_run[-6:]
-        self.areas.clear()
-        self.covs.clear()
-        self.lengths.clear()
-        self.widths.clear()
-        for m, c, ln, w in run:
-            self.areas.append(m)
-            if np.isfinite(c):
-                self.covs.append(c)
-            if np.isfinite(ln):
-                self.lengths.append(ln)
-                self.widths.append(w)
-        self.grown_run = []
-        self.smooth = True
-
-    def seen(self, blob):
-        """Record the size of a followed frame that was not clean."""
-        if self.last_size is not None:
-            self.smooth = self.smooth and self._small_step(blob.mask_area, blob.length)
-            self.last_size = (blob.mask_area, blob.length)
-
-    def trims(self):
-        """An object of one grey level (learnt from 3 clean frames): what is attached
-        beyond its core is cut off."""
-        return (not self.mixed and len(self.uniforms) >= 3
-                and statistics.median(self.uniforms) >= 0.8)
-
-    def add(self, blob):
-        fill = _rod_fill(blob)
-        if fill is not None:
-            self.fills.append(fill)
-        if getattr(blob, "core", None):
-            self.cores.append(blob.core)
-            self.uniforms.append(blob.uniform)
-        self.grown_run = []
-        self.last_size = (blob.mask_area, blob.length)
-        self.smooth = True
-        self.areas.append(blob.mask_area)
-        if np.isfinite(blob.area):
-            self.covs.append(blob.area)
-        if np.isfinite(blob.length):
-            self.lengths.append(blob.length)
-            self.widths.append(blob.width)
-        if self.snapshot is None and len(self.areas) >= 5:
-            self.snapshot = (list(self.levels), list(self.areas), list(self.lengths),
-                             list(self.widths))
-
-
 _TOP_RELEASE_NOTE = ("not looked for in the top view: it sees the rotor's plane edge-on, "
                      "where the ride on the blade barely differs from free flight; the "
                      "merge carries t = 0 over from the front view through the shared X")
@@ -483,163 +340,6 @@ def _first_clean_run(clean, start, length):
         if run >= length:
             return k - length + 1
     return None
-
-
-def _rod_fill(blob):
-    """Coverage area over ``length x width`` of the coverage's moments (1 for a
-    rectangle, less for a blurred thin rod, much less for two rods across each other);
-    None when not measured."""
-    if not (np.isfinite(blob.area) and np.isfinite(blob.length) and np.isfinite(blob.width)):
-        return None
-    box = blob.length * blob.width
-    return float(blob.area / box) if box > 0 else None
-
-
-def _attached_across(b, f):
-    """The rod's shape is broken by something attached (its fill below :data:`FILL_MIN`
-    of its clean frames', or coverage beyond its band)."""
-    fill = _rod_fill(b)
-    return (fill is not None and fill < FILL_MIN * f.ref(f.fills, fill)) or \
-        b.off_axis > OFF_AXIS_MAX
-
-
-def _rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area):
-    """(the straw measured on its own band (:func:`trim_to_rod`), or None when nothing
-    lies beyond the band or what is left is not the straw's clean shape (fill, nothing
-    across, length and width as in its clean frames); the detections cut away)."""
-    work = reg.work(group, lv, margin=work_margin(ref_w, ref_len, b.bbox))
-    before = work.others.copy()
-    dropped = trim_to_rod(work, width=ref_w, length=ref_len)
-    if not dropped:
-        return None, 0
-    b2 = copy.copy(b)
-    measure(work, b2, lv, width=ref_w, length=ref_len)
-    fill = _rod_fill(b2)
-    if not (b2.area > 0 and fill is not None and fill >= FILL_MIN * f.ref(f.fills, fill)
-            and b2.off_axis <= OFF_AXIS_MAX
-            and abs(b2.length - ref_len) <= ALONE_LENGTH_TOL * ref_len
-            and abs(b2.width - ref_w) <= ALONE_WIDTH_TOL * ref_w):
-        return None, dropped
-    b2.mask_area = int(np.count_nonzero(work.sel))
-    # something of the other polarity still touching the band (a blade) is behind it;
-    # not the ringing of compression between the straw and the rider cut away
-    cut = cv2.dilate((work.others & ~before).view(np.uint8), np.ones((5, 5), np.uint8))
-    d = work.d
-    work.d = np.where(cut.view(bool), np.float32(0.0), d)
-    b2.merged = other_touching(work, width=ref_w, min_area=min_area)
-    work.d = d
-    return b2, dropped
-
-
-def _opposite_touching(work, min_area):
-    """Pixels changed the other way (than the object's level) touching the object."""
-    opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
-    hug = cv2.dilate(work.sel, np.ones((5, 5), np.uint8))
-    return int(np.count_nonzero(hug & opp)) >= min_area
-
-
-def _shadow_beside(work, *, least=0.0):
-    """What touches the object in the other polarity is a shadow: its edges are
-    blurred (at least 1.4 times as wide as the object's), and (``least``) it shows
-    beside the object over at least that fraction of the object's pixels (a shadow is
-    a copy of the object; a blurred fringe of something passing behind is not)."""
-    opp = (work.d * work.den < 0) & (np.abs(work.d) > work.t)
-    near = cv2.dilate(work.sel, np.ones((9, 9), np.uint8)).view(bool)
-    if np.count_nonzero(opp & near) < least * np.count_nonzero(work.sel):
-        return False
-    _, w_opp = edge_stats(work, opp & near, alone=True)
-    _, w_own = edge_stats(work, work.sel.view(bool), alone=True)
-    return bool(np.isfinite(w_opp) and np.isfinite(w_own) and w_opp >= 1.4 * w_own)
-
-
-def _edge_width(parts):
-    """Edge width (px) of the larger parts (the mask-area weighted median)."""
-    parts = sorted((q for q in parts if np.isfinite(q.edge_w)), key=lambda q: q.edge_w)
-    if not parts:
-        return np.nan
-    half = 0.5 * sum(q.mask_area for q in parts)
-    run = 0.0
-    for q in parts:
-        run += q.mask_area
-        if run >= half:
-            return float(q.edge_w)
-    return float(parts[-1].edge_w)
-
-
-def _rodlike(blobs):
-    """A rod (a straw: long or thin), measured by its coverage; else an object of any
-    shape, measured by its silhouette."""
-    w = [b.width for b in blobs if np.isfinite(b.width)]
-    ln = [b.length for b in blobs if np.isfinite(b.length)]
-    if not w or not ln:
-        return True
-    w, ln = float(np.median(w)), float(np.median(ln))
-    return w < 4.0 or ln >= 3.0 * w
-
-
-def _target_index(target, fnums, name):
-    """Source index of the ``target``'s frame; TrackError when it is not in the footage."""
-    try:
-        frame, (tu, tv) = target
-        frame = int(frame) if float(frame) == int(frame) else None
-        tu, tv = float(tu), float(tv)
-    except (TypeError, ValueError):
-        raise TrackError(f"target must be (frame, (u_px, v_px)), got {target!r}") from None
-    if frame is None or not (np.isfinite(tu) and np.isfinite(tv)):
-        raise TrackError(f"target must be (frame, (u_px, v_px)) with an integer frame and a "
-                         f"finite pixel, got {target!r}")
-    i = frame - int(fnums[0])
-    if not 0 <= i < len(fnums):
-        raise TrackError(f"{name}: the target's frame {frame} is not in the footage (frames "
-                         f"{int(fnums[0])}..{int(fnums[-1])})")
-    return i
-
-
-def _target_blob(blobs, target, name, frame):
-    """The moving blob at the target's pixel: the one whose box holds it (the whole of
-    an object of both polarities before one of its parts, the largest part before a
-    highlight inside it), else the nearest within its own size."""
-    tu, tv = (float(x) for x in target[1])
-
-    def contains(b):
-        x0, y0, x1, y1 = b.bbox
-        return x0 - 1 <= tu <= x1 and y0 - 1 <= tv <= y1
-
-    inside = [b for b in blobs if contains(b)]
-    if inside:
-        # the whole object (both polarities) before a part, the largest part before a
-        # highlight or an opening inside it; but a whole that is one part and a speck
-        # of the other polarity (compression noise at its edge) is that part
-        best = min(inside, key=lambda b: (b.polarity != 0, -b.mask_area))
-        parts = [b for b in inside if b.polarity != 0]
-        if best.polarity == 0 and parts:
-            part = max(parts, key=lambda b: b.mask_area)
-            if part.mask_area >= 0.8 * best.mask_area:
-                return part
-        return best
-    near = [(float(np.hypot(b.u - tu, b.v - tv)), b) for b in blobs]
-    near = [(d, b) for d, b in near if d <= max(10.0, 2.0 * np.sqrt(b.mask_area))]
-    if near:
-        return min(near, key=lambda db: db[0])[1]
-    where = ""
-    if blobs:
-        b = min(blobs, key=lambda b: np.hypot(b.u - tu, b.v - tv))
-        where = f"; the nearest is at ({b.u:.0f}, {b.v:.0f})"
-    raise TrackError(f"{name}: nothing moves at the target ({tu:g}, {tv:g}) in frame "
-                     f"{int(frame)}{where}")
-
-
-def _ambiguity_message(name, view, candidates, origin):
-    """One line: the candidates and the ``target`` line that settles it."""
-    where = []
-    for tr in sorted(candidates, key=lambda tr: tr.points[-1][1]):
-        f, (cu, cv) = tr.describe(int(origin))
-        where.append(f"frame {f} at ({cu:.0f}, {cv:.0f})")
-    f, (cu, cv) = sorted(candidates, key=lambda tr: -tr.speed())[0].describe(int(origin))
-    table = f"[views.{view}]" if view else "the view's table"
-    return (f"{name}: {len(candidates)} objects fly alike and none can be told to be the one "
-            f"to track: {'; '.join(where)}; name it in scene.toml {table}, e.g. "
-            f"target = {{ frame = {f}, at_px = [{cu:.0f}, {cv:.0f}] }}")
 
 
 def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
@@ -894,11 +594,11 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                             and q.bbox[3] <= oy1) or on_body(q, outer) for q in inside[small])
             # (a rod riding a blade of the other polarity is its own object; a
             # patch of another shape is a part, up to a tenth of the whole)
-            rods = any(_rodlike([q]) for q in inside[small])
+            rods = any(rodlike_run([q]) for q in inside[small])
             if not enclosed and area_of[big] > (3.0 if rods else 10.0) * area_of[small]:
                 continue
             # a shadow beside a bright object is not part of it: blurred edges
-            wb, wd = _edge_width(inside[1]), _edge_width(inside[-1])
+            wb, wd = edge_width(inside[1]), edge_width(inside[-1])
             if (not enclosed and np.isfinite(wb) and np.isfinite(wd)
                     and (wd >= 1.6 * wb or wb >= 1.6 * wd)):
                 continue
@@ -942,10 +642,10 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 and np.hypot(*(tv - (vel + acc * gap))) <= vgate)
 
     def start_following(tr):
-        f = _Follow()
+        f = Follow()
         f.mixed = tr.polarity == 0
-        f.compact = f.mixed or not _rodlike(tr.blobs)
-        f.rod = f.mixed and _rodlike(tr.blobs)
+        f.compact = f.mixed or not rodlike_run(tr.blobs)
+        f.rod = f.mixed and rodlike_run(tr.blobs)
         if f.compact:
             # frames before the tracklet's blob last split or grew at once (the object
             # leaving what it rode on) were of something else too: they are read again
@@ -958,14 +658,14 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         # a detection unlike the tracklet's others (twice the area, or a rod's shape
         # broken by something across it) is not the object's alone
         med_area = float(np.median([b.mask_area for b in tr.blobs]))
-        fills = [x for x in (_rod_fill(b) for b in tr.blobs) if x is not None]
+        fills = [x for x in (rod_fill(b) for b in tr.blobs) if x is not None]
         med_fill = float(np.median(fills)) if fills else None
         for k, b in enumerate(tr.blobs):
             if f.compact and b.silhouette is not None:
                 b.u, b.v, b.area, b.angle, b.length, b.width = b.silhouette
             t = tr.points[k][0]
             bu, bv = b.u, b.v
-            fill = _rod_fill(b)
+            fill = rod_fill(b)
             odd = b.mask_area > 1.4 * med_area or (
                 not f.compact and med_fill is not None and fill is not None
                 and fill < 0.8 * med_fill) or (
@@ -1085,7 +785,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             # and what touches it in the other polarity is behind it: a blade)
             if not other_touching(work, width=ref_w, min_area=min_area):
                 pass
-            elif known and _shadow_beside(work, least=0.2):
+            elif known and shadow_beside(work, least=0.2):
                 # a shadow beside it (blurred edges, of the other polarity): not an
                 # object behind it; the background darkened by it, also under the
                 # straw's edge, is taken into the coverage's background
@@ -1094,12 +794,12 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 fl |= MERGED
             measure(work, b, lv, width=ref_w if known else None,
                     length=ref_len if known else None)
-            if known and len(f.fills) >= 3 and (_attached_across(b, f) or (
+            if known and len(f.fills) >= 3 and (attached_across(b, f) or (
                     len(f.areas) >= 3 and mask_area > 1.3 * f.ref(f.areas, np.inf))):
                 # another rod attached across it or along it (grown): the straw's own band
                 # (its width and length round the axis of its fully covered core)
                 # measured alone, and kept when it has the straw's clean shape
-                b2, cut = _rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area)
+                b2, cut = rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area)
                 if cut >= max(3 * min_area, 0.1 * b.mask_area):
                     f.cut_at = i       # something beyond its band: coming apart later
                 if b2 is not None:
@@ -1111,7 +811,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             lv = level if level is not None else read_level(reg, b)
             work = reg.work(group, lv, margin=work_margin(None, None, b.bbox))
             trim = f.trims() and known
-            if not trim and _opposite_touching(work, min_area):
+            if not trim and opposite_touching(work, min_area):
                 whole = own_other_half(frame, roi, gain, b, f) if known else None
                 if whole is not None:
                     # the object's other half shows against a background of its own
@@ -1122,7 +822,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                     group = [b.label]
                     mask_area = b.mask_area
                     work = reg.work(group, np.nan, margin=work_margin(None, None, b.bbox))
-                elif not _shadow_beside(work):
+                elif not shadow_beside(work):
                     fl |= MERGED
             if not f.mixed:
                 # an object of one grey level: what is attached beyond its fully
@@ -1171,7 +871,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             # much of that rectangle empty: a shape the straw's clean frames never had
             # (coming apart from something attached, it must fill FILL_SEPARATE of it
             # again for a while)
-            fill = _rod_fill(b)
+            fill = rod_fill(b)
             least_fill = FILL_SEPARATE if i - f.cut_at <= SEPARATE_FRAMES else FILL_MIN
             if fill is not None and len(f.fills) >= 3 and \
                     fill < least_fill * f.ref(f.fills, fill):
@@ -1287,7 +987,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         good = np.flatnonzero(clean[t_idx:]) + t_idx
         if good.size < 3:
             return
-        f = _Follow()
+        f = Follow()
         f.mixed = ahead.mixed
         f.compact = ahead.compact
         f.rod = ahead.rod
@@ -1363,7 +1063,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 raise Cancelled(f"tracking of {_name(view, source)} cancelled")
             yield item
 
-    t_idx = None if target is None else _target_index(target, fnums, name)
+    t_idx = None if target is None else target_index(target, fnums, name)
     back = deque()           # frames before the target frame, newest last
     back_bytes = 0
     pinned = None            # the target's tracklet until it has 3 points
@@ -1416,7 +1116,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         if blobs:
             moving_frames += 1
         if i == t_idx:
-            pinned = Tracklet(tau[i], _target_blob(blobs, target, name, fnums[i]))
+            pinned = Tracklet(tau[i], target_blob(blobs, target, name, fnums[i]))
             acq.tracklets = [pinned]
             continue
         if pinned is not None:
@@ -1437,7 +1137,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         if tr is None and acq.ambiguous and lost_state is None and t_idx is None:
             ambiguous_run += 1
             if ambiguous_run >= 3:
-                raise TrackError(_ambiguity_message(name, view, acq.ambiguous, fnums[0]))
+                raise TrackError(ambiguity_message(name, view, acq.ambiguous, fnums[0]))
         else:
             ambiguous_run = 0
         if tr is not None:

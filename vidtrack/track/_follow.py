@@ -1,0 +1,141 @@
+"""The running state of the tracker's follower: the object's reference size, shape and
+grey level from its clean frames, its prediction, and what moves near it.
+
+Internal to :mod:`vidtrack.track.tracker`.
+"""
+
+import statistics
+from collections import deque
+
+import numpy as np
+
+from vidtrack.track._rods import rod_fill
+from vidtrack.track._select import Intruders, Predictor
+
+
+class Follow:
+    """The running state of the follower (reference size, grey level, errors)."""
+
+    def __init__(self):
+        self.levels = deque(maxlen=9)
+        self.areas = deque(maxlen=9)
+        self.covs = deque(maxlen=9)      # coverage sums (px^2) of the clean frames
+        self.grown_run = []              # sizes of the grown frames since the last clean
+        self.cores = deque(maxlen=9)     # fully covered pixels of an object of one level
+        self.fills = deque(maxlen=9)     # a rod's area / (length x width)
+        self.uniforms = deque(maxlen=9)  # its share of such pixels inside its silhouette
+        self.last_cov = None
+        self.lengths = deque(maxlen=9)
+        self.widths = deque(maxlen=9)
+        self.errors = deque(maxlen=16)
+        self.pred = Predictor()
+        self.intruders = Intruders()
+        self.gap = 0
+        # (mask area, length) of the last frame followed, and whether every step since
+        # the last clean frame was small: a straw turning out of an end-on view grows
+        # smoothly from frame to frame, a merge jumps
+        self.last_size = None
+        self.smooth = True
+        self.cut_at = -10 ** 9           # the last frame with something beyond its band
+        # an object of both polarities (segmented so), and one measured by its
+        # silhouette (anything but a rod: the coverage by one grey level is a rod's)
+        self.mixed = False
+        self.compact = False
+        self.rod = False        # an object of both polarities whose clean frames are a rod
+        # (levels, areas, lengths, widths) of its first clean frames
+        self.snapshot = None
+
+    @property
+    def level(self):
+        return float(statistics.median(self.levels)) if self.levels else None
+
+    def ref(self, q, default):
+        return float(statistics.median(q)) if q else default
+
+    def _small_step(self, a1, l1, *, step=1.25, slack_px=12.0):
+        a0, l0 = self.last_size
+        if a1 > step * a0 + slack_px:
+            return False
+        max_dl = 1.0 + 0.15 * max(self.lengths) if self.lengths else np.inf
+        return not (np.isfinite(l0) and np.isfinite(l1) and l1 - l0 > max_dl)
+
+    def smooth_growth(self, blob):
+        """The blob's size reached from the last clean frame in small steps only.
+
+        From frame to frame since the last clean frame, this one included, the mask
+        area grows by at most 1.25 times plus 12 px (the edge pixels of a straw seen
+        end-on come and go with the noise), and the length by at most 1 px plus 0.15 of
+        the longest reference length: the straw turning, not another blob joining.
+        """
+        return (self.last_size is not None and self.smooth
+                and self._small_step(blob.mask_area, blob.length))
+
+    def become_mixed(self):
+        """Measure the object by its silhouette from now on (its sizes start again)."""
+        self.mixed = True
+        self.compact = True
+        self.areas.clear()
+        self.covs.clear()
+        self.last_cov = None
+        self.lengths.clear()
+        self.widths.clear()
+        self.last_size = None
+        self.smooth = True
+
+    def regrown(self, blob, *, frames=6, spread=1.3):
+        """``blob`` ends a run of ``frames`` consecutive grown frames of one size."""
+        self.grown_run.append((blob.mask_area, blob.area, blob.length, blob.width))
+        run = self.grown_run[-frames:]
+        if len(run) < frames:
+            return False
+        a = [r[0] for r in run]
+        return max(a) <= spread * min(a)
+
+    def relearn(self):
+        """Take the last grown frames' sizes as the reference."""
+        run = self.grown_run[-6:]
+        self.areas.clear()
+        self.covs.clear()
+        self.lengths.clear()
+        self.widths.clear()
+        for m, c, ln, w in run:
+            self.areas.append(m)
+            if np.isfinite(c):
+                self.covs.append(c)
+            if np.isfinite(ln):
+                self.lengths.append(ln)
+                self.widths.append(w)
+        self.grown_run = []
+        self.smooth = True
+
+    def seen(self, blob):
+        """Record the size of a followed frame that was not clean."""
+        if self.last_size is not None:
+            self.smooth = self.smooth and self._small_step(blob.mask_area, blob.length)
+            self.last_size = (blob.mask_area, blob.length)
+
+    def trims(self):
+        """An object of one grey level (learnt from 3 clean frames): what is attached
+        beyond its core is cut off."""
+        return (not self.mixed and len(self.uniforms) >= 3
+                and statistics.median(self.uniforms) >= 0.8)
+
+    def add(self, blob):
+        fill = rod_fill(blob)
+        if fill is not None:
+            self.fills.append(fill)
+        if getattr(blob, "core", None):
+            self.cores.append(blob.core)
+            self.uniforms.append(blob.uniform)
+        self.grown_run = []
+        self.last_size = (blob.mask_area, blob.length)
+        self.smooth = True
+        self.areas.append(blob.mask_area)
+        if np.isfinite(blob.area):
+            self.covs.append(blob.area)
+        if np.isfinite(blob.length):
+            self.lengths.append(blob.length)
+            self.widths.append(blob.width)
+        if self.snapshot is None and len(self.areas) >= 5:
+            self.snapshot = (list(self.levels), list(self.areas), list(self.lengths),
+                             list(self.widths))

@@ -1,0 +1,100 @@
+"""Rules for a rod (a straw) followed by the tracker: its shape (how much of the
+rectangle its moments describe it fills, its coverage beyond its band), the rod measured
+alone on its own band when something is attached across it, and whether a blob, or a run
+of them, is a rod at all (long or thin) rather than an object of any shape.
+
+Internal to :mod:`vidtrack.track.tracker` and :mod:`vidtrack.track._select`.
+"""
+
+import copy
+
+import cv2
+import numpy as np
+
+from vidtrack.track._segment import measure, other_touching, trim_to_rod, work_margin
+
+#: A rod's coverage share beyond its band (``Blob.off_axis``) above which something is
+#: attached across it (0 for one rod, blurred or not; 0.1-0.17 for a thin rod crossing a
+#: straw at 40 degrees).
+OFF_AXIS_MAX = 0.04
+#: A rod whose coverage fills less than this fraction of what its clean frames filled
+#: (``area / (length x width)``) has something attached.
+FILL_MIN = 0.8
+#: ... and, within :data:`SEPARATE_FRAMES` frames of one with detections beyond its band
+#: (something attached: a tenth of its pixels or more), below this fraction: two rods
+#: drifting apart leave the shape half broken for a while.
+FILL_SEPARATE = 0.9
+SEPARATE_FRAMES = 10
+#: A rod measured on its own band (something attached cut away) is kept when its length
+#: and width are within these fractions of its clean frames'.
+ALONE_LENGTH_TOL = 0.10
+ALONE_WIDTH_TOL = 0.20
+
+
+def is_rod(width, length):
+    """Long or thin (a straw: measured by its coverage), from the coverage's second
+    moments; an unmeasured size counts as a rod."""
+    if not (np.isfinite(width) and np.isfinite(length)):
+        return True
+    return width < 4.0 or length >= 3.0 * width
+
+
+def rodlike(blob):
+    """:func:`is_rod` of one blob."""
+    return is_rod(blob.width, blob.length)
+
+
+def rodlike_run(blobs):
+    """:func:`is_rod` of the median width and length of ``blobs`` (a tracklet): a rod,
+    measured by its coverage; else an object of any shape, measured by its silhouette."""
+    w = [b.width for b in blobs if np.isfinite(b.width)]
+    ln = [b.length for b in blobs if np.isfinite(b.length)]
+    if not w or not ln:
+        return True
+    return is_rod(float(np.median(w)), float(np.median(ln)))
+
+
+def rod_fill(blob):
+    """Coverage area over ``length x width`` of the coverage's moments (1 for a
+    rectangle, less for a blurred thin rod, much less for two rods across each other);
+    None when not measured."""
+    if not (np.isfinite(blob.area) and np.isfinite(blob.length) and np.isfinite(blob.width)):
+        return None
+    box = blob.length * blob.width
+    return float(blob.area / box) if box > 0 else None
+
+
+def attached_across(b, f):
+    """The rod's shape is broken by something attached (its fill below :data:`FILL_MIN`
+    of its clean frames', or coverage beyond its band)."""
+    fill = rod_fill(b)
+    return (fill is not None and fill < FILL_MIN * f.ref(f.fills, fill)) or \
+        b.off_axis > OFF_AXIS_MAX
+
+
+def rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area):
+    """(the straw measured on its own band (:func:`trim_to_rod`), or None when nothing
+    lies beyond the band or what is left is not the straw's clean shape (fill, nothing
+    across, length and width as in its clean frames); the detections cut away)."""
+    work = reg.work(group, lv, margin=work_margin(ref_w, ref_len, b.bbox))
+    before = work.others.copy()
+    dropped = trim_to_rod(work, width=ref_w, length=ref_len)
+    if not dropped:
+        return None, 0
+    b2 = copy.copy(b)
+    measure(work, b2, lv, width=ref_w, length=ref_len)
+    fill = rod_fill(b2)
+    if not (b2.area > 0 and fill is not None and fill >= FILL_MIN * f.ref(f.fills, fill)
+            and b2.off_axis <= OFF_AXIS_MAX
+            and abs(b2.length - ref_len) <= ALONE_LENGTH_TOL * ref_len
+            and abs(b2.width - ref_w) <= ALONE_WIDTH_TOL * ref_w):
+        return None, dropped
+    b2.mask_area = int(np.count_nonzero(work.sel))
+    # something of the other polarity still touching the band (a blade) is behind it;
+    # not the ringing of compression between the straw and the rider cut away
+    cut = cv2.dilate((work.others & ~before).view(np.uint8), np.ones((5, 5), np.uint8))
+    d = work.d
+    work.d = np.where(cut.view(bool), np.float32(0.0), d)
+    b2.merged = other_touching(work, width=ref_w, min_area=min_area)
+    work.d = d
+    return b2, dropped
