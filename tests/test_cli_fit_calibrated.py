@@ -57,16 +57,21 @@ def write_run(folder, rng, *, distortion=True):
     return folder
 
 
+def _fit_json(vidtrack_cli, run, *extra):
+    """``vidtrack fit RUN --json`` (exit 0): the run's record and the terminal's stderr."""
+    r = vidtrack_cli("fit", run, *extra, "--json")
+    assert r.returncode == 0, r.stderr
+    rec = json.loads(r.stdout)
+    return (rec[0] if isinstance(rec, list) else rec), r.stderr
+
+
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     return write_run(tmp_path_factory.mktemp("cal") / "run", np.random.default_rng(11))
 
 
 def test_calibrated_points_give_k_back(run, vidtrack_cli):
-    r = vidtrack_cli("fit", run, "--json")
-    assert r.returncode == 0, r.stderr
-    rec = json.loads(r.stdout)
-    rec = rec[0] if isinstance(rec, list) else rec
+    rec, _ = _fit_json(vidtrack_cli, run)
     for name, truth in zip(("k1", "k2", "k3", "k4"), TRUTH_K):
         c = rec["coefficients"][name]
         assert c["determined"], (name, c)
@@ -92,10 +97,7 @@ def test_the_same_run_without_the_lens_model_is_biased(run, tmp_path, vidtrack_c
     text = (run / "scene.toml").read_text()
     text = "\n".join(ln for ln in text.splitlines() if not ln.startswith("distortion"))
     (run / "scene.toml").write_text(text + "\n")
-    r = vidtrack_cli("fit", run, "--json")
-    assert r.returncode == 0, r.stderr
-    rec = json.loads(r.stdout)
-    rec = rec[0] if isinstance(rec, list) else rec
+    rec, _ = _fit_json(vidtrack_cli, run)
     k4 = rec["coefficients"]["k4"]["value"]
     assert abs(k4 / TRUTH_K[3] - 1) > 0.03
     assert rec["world"]["median_reprojection_px"] < 1.0
@@ -113,10 +115,7 @@ def test_real_three_camera_rig(shared_dir, tmp_path, vidtrack_cli):
                   "fps = 25", "dlt = " + json.dumps(L[:, j].tolist()),
                   'pixel_origin = "bottom-left"']
     (run / "scene.toml").write_text("\n".join(lines) + "\n")
-    r = vidtrack_cli("fit", run, "--model", "free", "--json")
-    assert r.returncode == 0, r.stderr
-    rec = json.loads(r.stdout)
-    rec = rec[0] if isinstance(rec, list) else rec
+    rec, _ = _fit_json(vidtrack_cli, run, "--model", "free")
     assert rec["world"]["median_reprojection_px"] <= 1.2
     for name in ("k1", "k2"):
         g = rec["coefficients"][name]["value"] * 9.80665
@@ -158,13 +157,6 @@ def _badminton_run(shared_dir, run, *, footage):
                   "frames = [732, 872]"]
     (run / "scene.toml").write_text("\n".join(lines) + "\n")
     return run
-
-
-def _fit_json(vidtrack_cli, run):
-    r = vidtrack_cli("fit", run, "--json")
-    assert r.returncode == 0, r.stderr
-    rec = json.loads(r.stdout)
-    return (rec[0] if isinstance(rec, list) else rec), r.stderr
 
 
 def test_real_two_camera_rig_one_flight_between_hits(shared_dir, tmp_path, vidtrack_cli):

@@ -740,16 +740,14 @@ def measure(work, blob, level, *, width=None, length=None):
     return blob
 
 
-def _detections_off_axis(work, blob):
+def _detections_off_axis(work, blob, ad, top):
     """:func:`_off_axis` of a rod measured by its body (:func:`measure_mixed`): of its
-    detections, each weighted by its change (up to the 90th percentile of them), about
-    the body's axis. What is attached across or beside the rod, and was closed into its
-    body, shows there."""
+    detections, each weighted by its change ``ad`` (up to ``top``, the 90th percentile of
+    them), about the body's axis. What is attached across or beside the rod, and was
+    closed into its body, shows there."""
     sel = work.sel.view(bool)
-    ad = np.abs(work.d)
     if not sel.any() or not blob.area > 0:
         return 0.0
-    top = np.float32(np.percentile(ad[sel], 90))
     det = np.where(sel, np.minimum(ad / max(top, np.float32(1e-6)), np.float32(1.0)),
                    np.float32(0.0)).astype(np.float32)
     m = cv2.moments(det, False)
@@ -1089,7 +1087,7 @@ def measure_mixed(work, blob, *, rod=None):
     _from_moments(blob, c, work.origin)
     if blob.area > 0:
         _rod_ends_centre(blob, c, work.origin)
-        blob.off_axis = _detections_off_axis(work, blob)
+        blob.off_axis = _detections_off_axis(work, blob, ad, top)
     return blob
 
 
