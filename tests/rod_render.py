@@ -117,3 +117,18 @@ def write_avi(path, frames, fps=30.0):
         vw.write(f)
     vw.release()
     return path
+
+
+def read_video(path):
+    """Every frame of the video at ``path`` as OpenCV decodes it (BGR), in order."""
+    import cv2
+
+    cap = cv2.VideoCapture(str(path), cv2.CAP_FFMPEG)
+    frames = []
+    while True:
+        ok, img = cap.read()
+        if not ok:
+            break
+        frames.append(img)
+    cap.release()
+    return frames

@@ -13,7 +13,7 @@ import re
 import cv2
 import numpy as np
 import pytest
-from rod_render import disc_coverage, texture, write_avi
+from rod_render import disc_coverage, read_video, texture, write_avi
 
 from vidtrack.errors import SceneError, SourceError, TrackError
 from vidtrack.footage import open_source
@@ -94,14 +94,7 @@ def test_the_scene_hides_the_ball_in_the_luma_only():
 
 def test_colour_footage_round_trips_losslessly(colour):
     path, frames = colour
-    cap = cv2.VideoCapture(str(path), cv2.CAP_FFMPEG)
-    got = []
-    while True:
-        ok, image = cap.read()
-        if not ok:
-            break
-        got.append(image)
-    cap.release()
+    got = read_video(path)
     assert len(got) == N
     assert all(np.array_equal(a, b) for a, b in zip(got, frames))
 

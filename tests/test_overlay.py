@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from rod_render import read_video
 
 cv2 = pytest.importorskip("cv2")
 
@@ -49,18 +50,6 @@ def drawn(tmp_path_factory, ):
     res = run_vidtrack("overlay", run)
     assert res.returncode == 0, res.stderr
     return run, res
-
-
-def read_video(path):
-    cap = cv2.VideoCapture(str(path))
-    frames = []
-    while True:
-        ok, img = cap.read()
-        if not ok:
-            break
-        frames.append(img)
-    cap.release()
-    return frames
 
 
 def ring(img, u, v, half=25, banner=None):
