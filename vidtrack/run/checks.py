@@ -14,8 +14,10 @@ the values measured on good runs, with a wide margin (docs/fit-outputs.md, "Cros
   their RMS difference (:attr:`vidtrack.world.orthogonal.WorldTrack.x_rms_px`, in pixels
   of the coarser view) must stay below a pixel.
 - **The speed along X** (:data:`SPEED_RATIO_TOL`): over the stretch of X both views
-  saw, each view's mean speed along X from its own clock (frames / fps) and scale. A
-  view whose fps (or scale) is wrong sees the same stretch crossed in a different time.
+  saw, each view's mean speed along X from its own clock (frames / fps) and scale: the
+  stretch over the time a quadratic t(x) through the view's points takes to cross it
+  (whichever of its frames a view kept). A view whose fps (or scale) is wrong sees the
+  same stretch crossed in a different time.
 - **Accelerations** (:data:`VERTICAL_G`, :data:`HORIZONTAL_G_MAX`): a quadratic in t
   fitted to each world axis gives the mean acceleration. A thrown straw falls (its mean
   vertical acceleration is downward, between a few tenths of g and a few g) and drag
@@ -199,8 +201,16 @@ def speed_ratio(world, tracks, mappings):
         inside = (x >= lo) & (x <= hi)
         if np.count_nonzero(inside) < _SPEED_MIN_POINTS or np.ptp(t[inside]) <= 0:
             return None
-        slope = np.polyfit(t[inside], x[inside], 1)[0]
-        speeds[v], points[v] = float(slope), int(np.count_nonzero(inside))
+        # the time this view's clock takes to cross the stretch, from a quadratic t(x)
+        # (in the stretch's own scale): a straight line through x(t) would give a
+        # decelerating straw's speed where this view's points happen to lie (a view
+        # that lost the frames of one half sees it faster or slower)
+        s = (x[inside] - lo) / (hi - lo)
+        q = np.polyfit(s, t[inside], 2)
+        duration = float(np.polyval(q, 1.0) - np.polyval(q, 0.0))
+        if not duration != 0.0:
+            return None
+        speeds[v], points[v] = (hi - lo) / duration, int(np.count_nonzero(inside))
     ref = reference if reference in names else names[0]
     other = names[1] if ref == names[0] else names[0]
     if speeds[ref] == 0:
