@@ -11,7 +11,8 @@ import copy
 import cv2
 import numpy as np
 
-from vidtrack.track._segment import measure, other_touching, trim_to_rod, work_margin
+from vidtrack.track._segment import (THIN_PX, measure, other_touching, trim_to_rod,
+                                     work_margin)
 
 #: A rod's coverage share beyond its band (``Blob.off_axis``) above which something is
 #: attached across it (0 for one rod, blurred or not; 0.1-0.17 for a thin rod crossing a
@@ -25,6 +26,11 @@ FILL_MIN = 0.8
 #: drifting apart leave the shape half broken for a while.
 FILL_SEPARATE = 0.9
 SEPARATE_FRAMES = 10
+#: Narrower than this (px, from the coverage's moments) a rod's width is set by where it
+#: falls on the pixel grid: a straw 1.1 px wide lying along a row measures 0.4 to 2.0 px
+#: as it moves across it, so its fill says nothing (``vidtrack synth`` at its default
+#: 5.3 mm/px: 0.59 to 1.9). Its shape is then judged by its coverage beyond its band.
+FILL_WIDTH_MIN = THIN_PX
 #: A rod measured on its own band (something attached cut away) is kept when its length
 #: and width are within these fractions of its clean frames'.
 ALONE_LENGTH_TOL = 0.10
@@ -54,11 +60,26 @@ def rodlike_run(blobs):
     return is_rod(float(np.median(w)), float(np.median(ln)))
 
 
+def thin_line_run(blobs):
+    """The strongest pixels of ``blobs`` (a tracklet) are a thin line (median width below
+    :data:`FILL_WIDTH_MIN`, length at least 3 times it and 4 px): a thin straw, whatever
+    fainter thing (a rider, a shadow) its detections also hold."""
+    w = [b.strong_shape[0] for b in blobs if np.isfinite(b.strong_shape[0])]
+    ln = [b.strong_shape[1] for b in blobs if np.isfinite(b.strong_shape[1])]
+    if len(w) < max(3, len(blobs) // 2):
+        return False
+    w, ln = float(np.median(w)), float(np.median(ln))
+    return w < FILL_WIDTH_MIN and ln >= max(4.0, 3.0 * w)
+
+
 def rod_fill(blob):
     """Coverage area over ``length x width`` of the coverage's moments (1 for a
     rectangle, less for a blurred thin rod, much less for two rods across each other);
-    None when not measured."""
+    None when not measured, or for a rod narrower than :data:`FILL_WIDTH_MIN` (whose
+    width is the pixel grid's: it has no rectangle to fill)."""
     if not (np.isfinite(blob.area) and np.isfinite(blob.length) and np.isfinite(blob.width)):
+        return None
+    if blob.width < FILL_WIDTH_MIN:
         return None
     box = blob.length * blob.width
     return float(blob.area / box) if box > 0 else None
@@ -84,7 +105,7 @@ def rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area):
     b2 = copy.copy(b)
     measure(work, b2, lv, width=ref_w, length=ref_len)
     fill = rod_fill(b2)
-    if not (b2.area > 0 and fill is not None and fill >= FILL_MIN * f.ref(f.fills, fill)
+    if not (b2.area > 0 and (fill is None or fill >= FILL_MIN * f.ref(f.fills, fill))
             and b2.off_axis <= OFF_AXIS_MAX
             and abs(b2.length - ref_len) <= ALONE_LENGTH_TOL * ref_len
             and abs(b2.width - ref_w) <= ALONE_WIDTH_TOL * ref_w):

@@ -86,6 +86,9 @@ class Blob:
     silhouette: tuple = None  # (u, v, area, angle, length, width) by its silhouette
     off_axis: float = 0.0     # a rod's coverage share beyond its band (another across it)
     core: int = 0             # its fully covered pixels, read by one grey level
+    # (width, length) of its strongest pixels (coverage at least half its 90th
+    # percentile): a thin straw with a fainter rod or a shadow attached is still a line
+    strong_shape: tuple = (np.nan, np.nan)
     uniform: float = 0.0      # the core's share of the region it closes (1: one level)
 
 
@@ -493,6 +496,11 @@ def trim_to_rod(work, *, width, length, core=0.75):
     c = np.zeros_like(work.d)
     np.divide(work.d, work.den, out=c, where=readable)
     full = sel & readable & (c >= core)
+    if np.count_nonzero(full) < 3 and width < THIN_PX:
+        # a thin straw seldom covers a pixel fully: its strongest pixels are its core
+        pos = c[sel & readable & (c > 0)]
+        if pos.size >= 3:
+            full = sel & readable & (c >= np.float32(0.5 * np.percentile(pos, 90)))
     if np.count_nonzero(full) < 3:
         return None
     m = cv2.moments(full.view(np.uint8), True)
@@ -557,6 +565,11 @@ def shade_background(work):
     level = work.den + b          # the straw's level (den = level - b)
     work.den = level - b2
     return int(np.count_nonzero(known))
+
+
+#: A straw whose strongest pixels are narrower than this (px) is thin: its width is set
+#: by where it falls on the pixel grid (a 1.1 px straw along a row measures 0.4 to 2 px).
+THIN_PX = 2.5
 
 
 def _axis(c):
@@ -737,7 +750,35 @@ def measure(work, blob, level, *, width=None, length=None):
     blob.angle = float(ang)
     blob.level = level
     blob.off_axis = _off_axis(c, m, ang)
+    line = _strong_line(c)
+    if line is not None:
+        blob.strong_shape = line[:2]
+        if line[0] < THIN_PX:
+            # a thin straw: the moments' axis runs between it and a fainter rod beside
+            # it, and their band holds both; its strongest pixels' axis is its own
+            blob.off_axis = max(blob.off_axis, _off_axis(c, None, line[4], centre=line[2:4],
+                                                         band=0.5 * line[0] + 1.5))
     return blob
+
+
+def _strong_line(c):
+    """(width, length, cx, cy, angle) of the pixels whose coverage is at least half the
+    90th percentile of the positive coverage (``sqrt(12 lambda)`` of their unweighted
+    second moments), or None. A fainter rod (a rider: half the contrast, half the width)
+    or a blurred shadow attached to a thin straw stays below that; the straw does not."""
+    pos = c[c > 0]
+    if pos.size < 3:
+        return None
+    strong = (c >= np.float32(0.5 * np.percentile(pos, 90))).view(np.uint8)
+    m = cv2.moments(strong, True)
+    if not m["m00"] >= 3:
+        return None
+    a, bb, cc = m["mu20"] / m["m00"], m["mu11"] / m["m00"], m["mu02"] / m["m00"]
+    half = 0.5 * (a + cc)
+    rad = np.hypot(0.5 * (a - cc), bb)
+    return (float(np.sqrt(12.0 * max(half - rad, 0.0))),
+            float(np.sqrt(12.0 * max(half + rad, 0.0))),
+            m["m10"] / m["m00"], m["m01"] / m["m00"], 0.5 * np.arctan2(2.0 * bb, a - cc))
 
 
 def _detections_off_axis(work, blob, ad, top):
@@ -756,23 +797,25 @@ def _detections_off_axis(work, blob, ad, top):
     return _off_axis(det, m, blob.angle)
 
 
-def _off_axis(c, m, ang):
-    """Share of a rod's coverage beyond its band (its half-width plus 1.5 px) from the
-    axis, away from its ends: 0 for one rod, blurred or not; a rod attached across it
-    (riding along, crossing) puts its arms there."""
+def _off_axis(c, m, ang, *, centre=None, band=None):
+    """Share of a rod's coverage beyond its band (twice the median distance from the
+    axis plus 1.5 px, or ``band``) from the axis (through the centroid of moments ``m``,
+    or ``centre``), away from its ends: 0 for one rod, blurred or not; a rod attached
+    across it (riding along, crossing) puts its arms there."""
     pos = c > 0.15
     if np.count_nonzero(pos) < 6:
         return 0.0
     yy, xx = np.nonzero(pos)
     w = c[pos].astype(np.float64)
-    cx, cy = m["m10"] / m["m00"], m["m01"] / m["m00"]
+    cx, cy = centre if centre is not None else (m["m10"] / m["m00"], m["m01"] / m["m00"])
     ca, sa = np.cos(ang), np.sin(ang)
     along = (xx - cx) * ca + (yy - cy) * sa
     across = np.abs(-(xx - cx) * sa + (yy - cy) * ca)
-    order = np.argsort(across)
-    cum = np.cumsum(w[order])
-    half = float(across[order][np.searchsorted(cum, 0.5 * cum[-1])])
-    band = 2.0 * half + 1.5
+    if band is None:
+        order = np.argsort(across)
+        cum = np.cumsum(w[order])
+        half = float(across[order][np.searchsorted(cum, 0.5 * cum[-1])])
+        band = 2.0 * half + 1.5
     k = along.size
     lo, hi = np.partition(along, (k // 10, k - 1 - k // 10))[[k // 10, k - 1 - k // 10]]
     mid = (along > lo) & (along < hi)

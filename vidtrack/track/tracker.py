@@ -84,7 +84,8 @@ from vidtrack.track._segment import (Segmenter, edge_stats, measure, measure_mix
                                      shade_background, trim_attached, work_margin)
 from vidtrack.track._follow import Follow
 from vidtrack.track._rods import (FILL_MIN, FILL_SEPARATE, OFF_AXIS_MAX, SEPARATE_FRAMES,
-                                  attached_across, rod_alone, rod_fill, rodlike_run)
+                                  attached_across, rod_alone, rod_fill, rodlike_run,
+                                  thin_line_run)
 from vidtrack.track._select import Acquirer, Tracklet, on_body
 from vidtrack.track._target import ambiguity_message, target_blob, target_index
 from vidtrack.track._touch import edge_width, opposite_touching, shadow_beside
@@ -644,7 +645,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
     def start_following(tr):
         f = Follow()
         f.mixed = tr.polarity == 0
-        f.compact = f.mixed or not rodlike_run(tr.blobs)
+        f.compact = f.mixed or not (rodlike_run(tr.blobs) or thin_line_run(tr.blobs))
         f.rod = f.mixed and rodlike_run(tr.blobs)
         if f.compact:
             # frames before the tracklet's blob last split or grew at once (the object
@@ -794,7 +795,8 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 fl |= MERGED
             measure(work, b, lv, width=ref_w if known else None,
                     length=ref_len if known else None)
-            if known and len(f.fills) >= 3 and (attached_across(b, f) or (
+            if known and (len(f.fills) >= 3 or b.off_axis > OFF_AXIS_MAX) and (
+                    attached_across(b, f) or (
                     len(f.areas) >= 3 and mask_area > 1.3 * f.ref(f.areas, np.inf))):
                 # another rod attached across it or along it (grown): the straw's own band
                 # (its width and length round the axis of its fully covered core)
