@@ -372,6 +372,35 @@ def test_good_runs_pass_the_cross_checks_with_a_margin(vidtrack_cli, tmp_path, t
     assert 1.0 < -acc["y"][0] / 9.80665 < 5.0
 
 
+def test_speed_ratio_does_not_depend_on_which_frames_a_view_kept(vidtrack_cli, two_view_run):
+    """A view that lost the frames of one half of the flight (flagged) still crosses the
+    stretch in the same time: a straight line through x(t) put the decelerating straw's
+    speed where that view's points lay (vidtrack synth with its defaults, whose top view
+    had half its frames flagged, was refused at 1.05)."""
+    from vidtrack.run.checks import speed_ratio
+    from vidtrack.run.tracks_file import read_tracks
+    from vidtrack.scene import load_scene
+    from vidtrack.track.tracker import LOST
+
+    assert fit(vidtrack_cli, two_view_run, "--json").returncode == 0
+    tf = read_tracks(two_view_run / "vidtrack" / "tracks.h5")
+    scene = load_scene(two_view_run)
+    maps = {n: v.mapping() for n, v in scene.views.items()}
+    whole = speed_ratio(tf.world, tf.tracks, maps)["ratio"]
+    for part in ("first", "last"):
+        tracks = dict(tf.tracks)
+        top = tracks["top"]
+        d = top.data.copy()
+        live = np.flatnonzero(top.usable)
+        # every frame of one half but one in five (the stretch stays the same)
+        half = live[: live.size // 2] if part == "first" else live[live.size // 2:]
+        drop = np.setdiff1d(half, half[::5])
+        d.loc[d.index[drop], "flags"] = LOST
+        tracks["top"] = type(top)(**{**top.__dict__, "data": d})
+        half = speed_ratio(tf.world, tracks, maps)
+        assert half is not None and abs(half["ratio"] - whole) < 0.005, (part, half, whole)
+
+
 # ---------------------------------------------------------------- the cache (item 4)
 
 def _k1(run):
