@@ -52,6 +52,9 @@ def track_view(scene, folder, name, settings, *, quiet=True, cancel=None, parts=
     return dataclasses.replace(out, notes=said + tuple(out.notes))
 
 
+#: How long (s) the worker is given to end on SIGTERM before it is killed.
+_STOP_WAIT_S = 5.0
+
 #: What the stages after tracking import (about 0.8 s of CPU).
 LATER_STAGES = ("scipy.optimize", "h5py", "vidtrack.world.orthogonal",
                 "vidtrack.run.tracks_file", "fits.lsq", "vidtrack.run.fit_record")
@@ -109,6 +112,10 @@ def _exit_with_parent():
     def watch():
         from multiprocessing.connection import wait
 
+        # a signal to this process is the main thread's to handle: were it delivered to
+        # this thread, the main thread blocked reading its next job would never run the
+        # handler (SIGTERM from the caller's stop, which then waited for ever)
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM, signal.SIGINT})
         wait([parent.sentinel])
         os._exit(0)
 
@@ -253,9 +260,13 @@ class ViewProcess:
             return None
 
     def stop(self):
-        """End the process (at once if it is still working) and wait for it."""
+        """End the process (at once if it is still working) and wait for it (killed if it
+        has not ended 5 s after SIGTERM)."""
         if self.proc.is_alive():
             self.proc.terminate()
+            self.proc.join(_STOP_WAIT_S)
+            if self.proc.is_alive():
+                self.proc.kill()
         self.proc.join()
         self.conn.close()
 
