@@ -11,6 +11,7 @@ import numpy as np
 
 from vidtrack.track._rods import rod_fill
 from vidtrack.track._select import Intruders, Predictor
+from vidtrack.track._thin import THIN_PX
 
 
 class Follow:
@@ -27,6 +28,7 @@ class Follow:
         self.last_cov = None
         self.lengths = deque(maxlen=9)
         self.widths = deque(maxlen=9)
+        self.strong_widths = deque(maxlen=9)  # its strongest pixels' (a thin straw's)
         self.errors = deque(maxlen=16)
         self.pred = Predictor()
         self.intruders = Intruders()
@@ -114,6 +116,13 @@ class Follow:
             self.smooth = self.smooth and self._small_step(blob.mask_area, blob.length)
             self.last_size = (blob.mask_area, blob.length)
 
+    @property
+    def thin(self):
+        """A thin straw: its clean frames' strongest pixels under
+        :data:`~vidtrack.track._thin.THIN_PX` wide (3 of them at least)."""
+        return len(self.strong_widths) >= 3 and \
+            statistics.median(self.strong_widths) < THIN_PX
+
     def trims(self):
         """An object of one grey level (learnt from 3 clean frames): what is attached
         beyond its core is cut off."""
@@ -136,6 +145,8 @@ class Follow:
         if np.isfinite(blob.length):
             self.lengths.append(blob.length)
             self.widths.append(blob.width)
+        if np.isfinite(blob.strong_shape[0]):
+            self.strong_widths.append(blob.strong_shape[0])
         if self.snapshot is None and len(self.areas) >= 5:
             self.snapshot = (list(self.levels), list(self.areas), list(self.lengths),
                              list(self.widths))

@@ -11,8 +11,8 @@ import copy
 import cv2
 import numpy as np
 
-from vidtrack.track._segment import (THIN_PX, measure, other_touching, trim_to_rod,
-                                     work_margin)
+from vidtrack.track._segment import measure, other_touching, trim_to_rod, work_margin
+from vidtrack.track._thin import THIN_PX
 
 #: A rod's coverage share beyond its band (``Blob.off_axis``) above which something is
 #: attached across it (0 for one rod, blurred or not; 0.1-0.17 for a thin rod crossing a
@@ -108,7 +108,7 @@ def rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area):
     if not (b2.area > 0 and (fill is None or fill >= FILL_MIN * f.ref(f.fills, fill))
             and b2.off_axis <= OFF_AXIS_MAX
             and abs(b2.length - ref_len) <= ALONE_LENGTH_TOL * ref_len
-            and abs(b2.width - ref_w) <= ALONE_WIDTH_TOL * ref_w):
+            and (ref_w < THIN_PX or abs(b2.width - ref_w) <= ALONE_WIDTH_TOL * ref_w)):
         return None, dropped
     b2.mask_area = int(np.count_nonzero(work.sel))
     # something of the other polarity still touching the band (a blade) is behind it;

@@ -28,6 +28,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from vidtrack.track._thin import GAP_MAX_PX, THIN_PX, fit_line, local_centroid, strong_line
+
 #: Kernels of the 1- and 2-pixel dilations and closings.
 _K3 = np.ones((3, 3), np.uint8)
 _K5 = np.ones((5, 5), np.uint8)
@@ -89,6 +91,7 @@ class Blob:
     # (width, length) of its strongest pixels (coverage at least half its 90th
     # percentile): a thin straw with a fainter rod or a shadow attached is still a line
     strong_shape: tuple = (np.nan, np.nan)
+    fitted: bool = False      # a thin straw's centre from its own line fitted (_thin)
     uniform: float = 0.0      # the core's share of the region it closes (1: one level)
 
 
@@ -341,6 +344,18 @@ class Region:
             out.append(blob)
         return out
 
+    def peak(self, group):
+        """Largest change ``|f - b|`` over the pixels of the components ``group``."""
+        st = self.stats[group]
+        gx0, gy0 = int(st[:, 0].min()), int(st[:, 1].min())
+        gx1, gy1 = int((st[:, 0] + st[:, 2]).max()), int((st[:, 1] + st[:, 3]).max())
+        lab = self.labels[gy0:gy1, gx0:gx1]
+        sel = np.isin(lab, group)
+        ox, oy = self.roi[0] + gx0, self.roi[1] + gy0
+        f = self.frame[oy:oy + lab.shape[0], ox:ox + lab.shape[1]].astype(np.float32)
+        b = self.seg.bg[oy:oy + lab.shape[0], ox:ox + lab.shape[1]] * np.float32(self.gain)
+        return float(np.abs(f - b)[sel].max()) if sel.any() else 0.0
+
     def work(self, group, level, *, margin):
         """Float arrays over the box of the components ``group``, grown by ``margin``.
 
@@ -513,7 +528,9 @@ def trim_to_rod(work, *, width, length, core=0.75):
     yy, xx = np.indices(sel.shape, dtype=np.float32)
     along = (xx - cu) * np.cos(ang) + (yy - cv_) * np.sin(ang)
     perp = -(xx - cu) * np.sin(ang) + (yy - cv_) * np.cos(ang)
-    band = (np.abs(perp) <= 0.5 * width + 1.0) & (np.abs(along) <= 0.5 * length + 1.0)
+    # (a thin straw's width is the pixel grid's: its band is the thin limit's)
+    half = 0.5 * max(width, THIN_PX) + 1.0 if width < THIN_PX else 0.5 * width + 1.0
+    band = (np.abs(perp) <= half) & (np.abs(along) <= 0.5 * length + 1.0)
     drop = sel & ~band
     n = int(np.count_nonzero(drop))
     if n:
@@ -565,11 +582,6 @@ def shade_background(work):
     level = work.den + b          # the straw's level (den = level - b)
     work.den = level - b2
     return int(np.count_nonzero(known))
-
-
-#: A straw whose strongest pixels are narrower than this (px) is thin: its width is set
-#: by where it falls on the pixel grid (a 1.1 px straw along a row measures 0.4 to 2 px).
-THIN_PX = 2.5
 
 
 def _axis(c):
@@ -641,7 +653,7 @@ def _band_fill(c, sup, unread, readable, *, width, length):
     return band
 
 
-def measure(work, blob, level, *, width=None, length=None):
+def measure(work, blob, level, *, width=None, length=None, thin=False):
     """Coverage-weighted centroid, area, orientation and length of the straw (in place).
 
     Parameters
@@ -655,6 +667,8 @@ def measure(work, blob, level, *, width=None, length=None):
     width, length : float, optional
         The straw's reference width and length (px), for the pixels where the straw
         cannot be seen (its level within the noise of the background's).
+    thin : bool
+        Its clean frames were a thin straw (:data:`~vidtrack.track._thin.THIN_PX`).
 
     Returns
     -------
@@ -687,8 +701,12 @@ def measure(work, blob, level, *, width=None, length=None):
     # a highlight along the straw (brighter than the background where the straw is
     # darker), which the closing took into the detections, would be read as negative
     # coverage: a rod of both polarities, measured by its body
+    # (not a straw known to be thin whose strongest pixels are still a thin line: what
+    # the closing joined to it there, a shadow between it and a rider beside it, is not
+    # inside it; its own line is fitted below)
     lit = cv2.erode(work.sel, _K3).view(bool) & (d * den < 0) & (np.abs(d) > t)
-    if np.count_nonzero(lit) >= max(3, 0.05 * np.count_nonzero(work.sel)):
+    if np.count_nonzero(lit) >= max(3, 0.05 * np.count_nonzero(work.sel)) and \
+            not (thin and _thin_line(c, sup, readable)):
         measure_mixed(work, blob, rod=True)
         blob.level = level
         return blob
@@ -722,6 +740,7 @@ def measure(work, blob, level, *, width=None, length=None):
             unread &= ~got
             if not unread.any():
                 break
+    c_all = c.copy()
     c[~sup] = 0.0
     m = cv2.moments(c, False)
     m00 = m["m00"]
@@ -750,35 +769,36 @@ def measure(work, blob, level, *, width=None, length=None):
     blob.angle = float(ang)
     blob.level = level
     blob.off_axis = _off_axis(c, m, ang)
-    line = _strong_line(c)
+    line = strong_line(c)
     if line is not None:
         blob.strong_shape = line[:2]
         if line[0] < THIN_PX:
             # a thin straw: the moments' axis runs between it and a fainter rod beside
-            # it, and their band holds both; its strongest pixels' axis is its own
-            blob.off_axis = max(blob.off_axis, _off_axis(c, None, line[4], centre=line[2:4],
-                                                         band=0.5 * line[0] + 1.5))
+            # it, and their band holds both; its strongest pixels' axis is its own, and
+            # its centre that of its own line fitted to the pixels (_thin)
+            if line[1] >= 2.0 * THIN_PX:
+                blob.off_axis = max(blob.off_axis, _off_axis(
+                    c, None, line[4], centre=line[2:4], band=0.5 * line[0] + 1.5))
+            domain = cv2.dilate(sup.view(np.uint8), _K3).view(bool) & ~others
+            domain &= sup | readable
+            got = fit_line(c_all, domain, line, m00 / max(line[1], 1.0))
+            blob.fitted = got is not None
+            if got is None and line[5] <= GAP_MAX_PX:
+                # too short for a line (seen nearly end on), or the fit failed: the
+                # coverage within 2 px of its strongest pixels (a fainter rod farther
+                # off is not of it; a rod whose middle a highlight cancels keeps its
+                # moments)
+                got = local_centroid(c, line)
+            if got is not None:
+                blob.u, blob.v = x0 + got[0], y0 + got[1]
     return blob
 
 
-def _strong_line(c):
-    """(width, length, cx, cy, angle) of the pixels whose coverage is at least half the
-    90th percentile of the positive coverage (``sqrt(12 lambda)`` of their unweighted
-    second moments), or None. A fainter rod (a rider: half the contrast, half the width)
-    or a blurred shadow attached to a thin straw stays below that; the straw does not."""
-    pos = c[c > 0]
-    if pos.size < 3:
-        return None
-    strong = (c >= np.float32(0.5 * np.percentile(pos, 90))).view(np.uint8)
-    m = cv2.moments(strong, True)
-    if not m["m00"] >= 3:
-        return None
-    a, bb, cc = m["mu20"] / m["m00"], m["mu11"] / m["m00"], m["mu02"] / m["m00"]
-    half = 0.5 * (a + cc)
-    rad = np.hypot(0.5 * (a - cc), bb)
-    return (float(np.sqrt(12.0 * max(half - rad, 0.0))),
-            float(np.sqrt(12.0 * max(half + rad, 0.0))),
-            m["m10"] / m["m00"], m["m01"] / m["m00"], 0.5 * np.arctan2(2.0 * bb, a - cc))
+def _thin_line(c, sup, readable):
+    """The strongest pixels of the positive coverage over the support are a thin line."""
+    line = strong_line(np.where(sup & readable, np.maximum(c, np.float32(0.0)),
+                                np.float32(0.0)))
+    return line is not None and line[0] < THIN_PX and line[1] >= 2.0 * THIN_PX
 
 
 def _detections_off_axis(work, blob, ad, top):

@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 
 from vidtrack.track._segment import edge_stats
+from vidtrack.track._thin import strong_line, strongest
 
 
 def opposite_touching(work, min_area):
@@ -29,6 +30,57 @@ def shadow_beside(work, *, least=0.0):
     _, w_opp = edge_stats(work, opp & near, alone=True)
     _, w_own = edge_stats(work, work.sel.view(bool), alone=True)
     return bool(np.isfinite(w_opp) and np.isfinite(w_own) and w_opp >= 1.4 * w_own)
+
+
+def beside_thin(work, *, width):
+    """What touches a thin straw (:data:`~vidtrack.track._thin.THIN_PX`) in the other
+    polarity is a shadow beside it: at most a third of the straw's strongest pixels fall
+    inside it, closed over the straw's width (a blade behind the straw surrounds them),
+    and at most half of it inside the straw's band (a highlight along it is inside);
+    it is a copy of the straw (along it within 25 degrees, half to twice its length, its
+    centre within a quarter of the length of the straw's along it: not a tooth it is
+    leaving, beyond one end) and much fainter (its 90th percentile change at most 0.35
+    of the straw's). A thin straw's edges cannot tell a blurred shadow from a sharp
+    object: their width is the blur's."""
+    sel = work.sel.view(bool)
+    readable = np.abs(work.den) > work.t
+    c = np.zeros_like(work.d)
+    np.divide(work.d, work.den, out=c, where=readable)
+    strong = strongest(np.where(sel, c, np.float32(0.0)))
+    if strong is None or not strong.any():
+        return False
+    opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
+    k = 2 * int(np.ceil(max(width or 1.0, 1.0))) + 3
+    behind = cv2.morphologyEx(opp, cv2.MORPH_CLOSE, np.ones((k, k), np.uint8)).view(bool)
+    s = strong.view(bool)
+    if np.count_nonzero(s & behind) > np.count_nonzero(s) / 3.0:
+        return False
+    # and a copy of it (a shadow): along it, of about its length
+    near = cv2.dilate(work.sel, np.ones((9, 9), np.uint8)).view(bool) & opp.view(bool)
+    line = strong_line(np.where(sel, c, np.float32(0.0)))
+    m = cv2.moments(np.where(near, np.abs(work.d), np.float32(0.0)), False)
+    if line is None or not m["m00"] > 0:
+        return False
+    a, bb, cc = m["mu20"] / m["m00"], m["mu11"] / m["m00"], m["mu02"] / m["m00"]
+    rad = np.hypot(0.5 * (a - cc), bb)
+    length = float(np.sqrt(12.0 * max(0.5 * (a + cc) + rad, 0.0)))
+    turn = abs((0.5 * np.arctan2(2.0 * bb, a - cc) - line[4] + np.pi / 2) % np.pi - np.pi / 2)
+    along = ((m["m10"] / m["m00"] - line[2]) * np.cos(line[4])
+             + (m["m01"] / m["m00"] - line[3]) * np.sin(line[4]))
+    if not (turn <= np.radians(25.0) and 0.5 * line[1] <= length <= 2.0 * line[1]
+            and abs(along) <= 0.25 * line[1]):
+        return False
+    # outside the straw (a highlight along it lies inside its band)
+    ys, xs = np.nonzero(near)
+    w = np.abs(work.d[ys, xs])
+    ca, sa = np.cos(line[4]), np.sin(line[4])
+    inside = ((np.abs((ys - line[3]) * ca - (xs - line[2]) * sa) <= 0.5 * line[0] + 0.5)
+              & (np.abs((xs - line[2]) * ca + (ys - line[3]) * sa) <= 0.5 * line[1]))
+    if w[inside].sum() > 0.5 * w.sum():
+        return False
+    # and much fainter than the straw (a blade or a tooth it leaves is solid)
+    own = float(np.percentile(np.abs(work.d[s]), 90))
+    return float(np.percentile(np.abs(work.d[near]), 90)) <= 0.35 * own
 
 
 def edge_width(parts):

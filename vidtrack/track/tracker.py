@@ -88,7 +88,8 @@ from vidtrack.track._rods import (FILL_MIN, FILL_SEPARATE, OFF_AXIS_MAX, SEPARAT
                                   thin_line_run)
 from vidtrack.track._select import Acquirer, Tracklet, on_body
 from vidtrack.track._target import ambiguity_message, target_blob, target_index
-from vidtrack.track._touch import edge_width, opposite_touching, shadow_beside
+from vidtrack.track._thin import FAINTER
+from vidtrack.track._touch import beside_thin, edge_width, opposite_touching, shadow_beside
 from vidtrack.track.background import Background, estimate_background, sample_indices
 from vidtrack.errors import TrackError
 
@@ -275,6 +276,15 @@ def _blade_mask(blade_region, shape):
     rows, cols = shape
     yy, xx = np.ogrid[:rows, :cols]
     return (xx - u) ** 2 + (yy - v) ** 2 <= r * r
+
+
+def _only_fainter(reg, others, p, reach, own_peak):
+    """Something moves within ``reach`` (px) of ``p``, and all of it is fainter than the
+    straw (:data:`~vidtrack.track._thin.FAINTER` of its largest change ``own_peak``): a
+    rider beside a thin straw, not a second straw."""
+    near = [o for o in others if math.hypot(o.u - p[0], o.v - p[1]) <= reach + 0.5 * (
+        math.hypot(o.bbox[2] - o.bbox[0], o.bbox[3] - o.bbox[1]))]
+    return bool(near) and all(reg.peak([o.label]) <= FAINTER * own_peak for o in near)
 
 
 def _name(view, source):
@@ -791,16 +801,21 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 # object behind it; the background darkened by it, also under the
                 # straw's edge, is taken into the coverage's background
                 shade_background(work)
+            elif known and f.thin and beside_thin(work, width=ref_w):
+                # a thin straw's faint shadow beside it: its own line is fitted to the
+                # pixels (measure), where the shadow weighs little
+                pass
             elif other_behind(work, lv, width=ref_w, min_area=min_area):
                 fl |= MERGED
             measure(work, b, lv, width=ref_w if known else None,
-                    length=ref_len if known else None)
-            if known and (len(f.fills) >= 3 or b.off_axis > OFF_AXIS_MAX) and (
+                    length=ref_len if known else None, thin=f.thin)
+            if known and not f.thin and len(f.fills) >= 3 and (
                     attached_across(b, f) or (
                     len(f.areas) >= 3 and mask_area > 1.3 * f.ref(f.areas, np.inf))):
                 # another rod attached across it or along it (grown): the straw's own band
                 # (its width and length round the axis of its fully covered core)
-                # measured alone, and kept when it has the straw's clean shape
+                # measured alone, and kept when it has the straw's clean shape (a thin
+                # straw's own line is fitted to the pixels instead: measure)
                 b2, cut = rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area)
                 if cut >= max(3 * min_area, 0.1 * b.mask_area):
                     f.cut_at = i       # something beyond its band: coming apart later
@@ -884,7 +899,9 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         # band away from its ends: arms of another rod across it or beside it do (also
         # of a rod of both polarities, measured by its body)
         rod_shape = not f.compact or f.rod
-        if rod_shape and b.off_axis > OFF_AXIS_MAX:
+        if rod_shape and b.off_axis > OFF_AXIS_MAX and not (f.thin and b.fitted):
+            # (a thin straw's own line fitted to the pixels is not moved by what lies
+            # beyond its band)
             same_shape = False
         if grown:
             # grown since the last clean frame: a merge, unless it grew smoothly (the
@@ -903,10 +920,14 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         # (an object of any shape: specks of noise or of itself round it are not
         # another object)
         least = max(3 * min_area, 0.1 * ref_area) if f.compact and ref_area else 0
+        # (a thin straw whose own line was fitted: a fainter thing beside it does not
+        # move it)
+        own_peak = reg.peak(group) if f.thin and b.fitted else None
         for o in others:
             ox0, oy0, ox1, oy1 = o.bbox
             if (o.mask_area >= least and ox0 <= x1 + 1 and x0 <= ox1 + 1
-                    and oy0 <= y1 + 1 and y0 <= oy1 + 1):
+                    and oy0 <= y1 + 1 and y0 <= oy1 + 1) and not (
+                        own_peak is not None and reg.peak([o.label]) <= FAINTER * own_peak):
                 same = True
                 slight = False
                 break
@@ -914,7 +935,8 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             if not np.isfinite(o.length):
                 o.length = float(max(o.bbox[2] - o.bbox[0], o.bbox[3] - o.bbox[1]))
         f.intruders.update(tau[i], others, min_area=0.4 * (ref_area or 0.0))
-        if f.intruders.near(tau[i], p[0], p[1], ref_len):
+        if f.intruders.near(tau[i], p[0], p[1], ref_len) and not (
+                own_peak is not None and _only_fainter(reg, others, p, ref_len, own_peak)):
             same = True
             slight = False
         # shrunk at a stroke: part of it hidden (behind something, or against a
@@ -931,10 +953,12 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             f.seen(b)
         if slight and not odd and not (fl & BORDER):
             f.pred.add(tau[i], b.u, b.v)
-        if f.compact and grown and not odd and not (fl & BORDER) and f.regrown(b):
+        if (f.compact or (f.thin and b.fitted)) and grown and not odd and \
+                not (fl & BORDER) and f.regrown(b):
             # an object of any shape that kept a new size for several frames, nothing
             # else touching it: it is that size now (a plush toy turning its large
-            # side, a glider turning broadside); its sizes are learnt again
+            # side, a glider turning broadside; a thin straw whose own line was
+            # fitted, first seen partly hidden); its sizes are learnt again
             f.relearn()
             same = False
         if not same and not odd and not (fl & BORDER):
