@@ -1027,8 +1027,10 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         f.areas.extend(areas)
         f.lengths.extend(lengths)
         f.widths.extend(widths)
-        # (a rod's shape: something riding along it leaves its rectangle part empty)
+        # (a rod's shape: something riding along it leaves its rectangle part empty; a
+        # thin straw's: its strongest pixels' width)
         f.fills.extend(ahead.fills)
+        f.strong_widths.extend(ahead.strong_widths)
         if areas and lengths:
             f.last_size = (areas[0], lengths[0])
         held = {i: fr for i, fr in back}
