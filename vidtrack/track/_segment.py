@@ -653,7 +653,7 @@ def _band_fill(c, sup, unread, readable, *, width, length):
     return band
 
 
-def measure(work, blob, level, *, width=None, length=None, thin=False):
+def measure(work, blob, level, *, width=None, length=None, thin=None):
     """Coverage-weighted centroid, area, orientation and length of the straw (in place).
 
     Parameters
@@ -667,8 +667,11 @@ def measure(work, blob, level, *, width=None, length=None, thin=False):
     width, length : float, optional
         The straw's reference width and length (px), for the pixels where the straw
         cannot be seen (its level within the noise of the background's).
-    thin : bool
-        Its clean frames were a thin straw (:data:`~vidtrack.track._thin.THIN_PX`).
+    thin : bool or None
+        Its clean frames were a thin straw (:data:`~vidtrack.track._thin.THIN_PX`):
+        its line is fitted when this frame's strongest pixels are a thin line too;
+        False: they were not (not fitted); None: not known (fitted when this frame's
+        are).
 
     Returns
     -------
@@ -772,7 +775,7 @@ def measure(work, blob, level, *, width=None, length=None, thin=False):
     line = strong_line(c)
     if line is not None:
         blob.strong_shape = line[:2]
-        if line[0] < THIN_PX:
+        if line[0] < THIN_PX and thin is not False:
             # a thin straw: the moments' axis runs between it and a fainter rod beside
             # it, and their band holds both; its strongest pixels' axis is its own, and
             # its centre that of its own line fitted to the pixels (_thin)

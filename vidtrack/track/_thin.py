@@ -108,11 +108,13 @@ def strong_line(c):
     rad = math.hypot(0.5 * (a - cc), bb)
     cx, cy = m["m10"] / m["m00"], m["m01"] / m["m00"]
     ang = 0.5 * math.atan2(2.0 * bb, a - cc)
-    ys, xs = np.nonzero(strong)
-    q = np.sort((xs - cx) * math.cos(ang) + (ys - cy) * math.sin(ang))
-    gap = float(np.diff(q).max()) if q.size > 1 else 0.0
-    return (math.sqrt(12.0 * max(half - rad, 0.0)), math.sqrt(12.0 * max(half + rad, 0.0)),
-            cx, cy, ang, gap)
+    width = math.sqrt(12.0 * max(half - rad, 0.0))
+    gap = 0.0
+    if width < THIN_PX:          # (only a thin straw's is looked at)
+        ys, xs = np.nonzero(strong)
+        q = np.sort((xs - cx) * math.cos(ang) + (ys - cy) * math.sin(ang))
+        gap = float(np.diff(q).max()) if q.size > 1 else 0.0
+    return (width, math.sqrt(12.0 * max(half + rad, 0.0)), cx, cy, ang, gap)
 
 
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)

@@ -808,7 +808,8 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             elif other_behind(work, lv, width=ref_w, min_area=min_area):
                 fl |= MERGED
             measure(work, b, lv, width=ref_w if known else None,
-                    length=ref_len if known else None, thin=f.thin)
+                    length=ref_len if known else None,
+                    thin=f.thin if len(f.strong_widths) >= 3 else None)
             if known and not f.thin and len(f.fills) >= 3 and (
                     attached_across(b, f) or (
                     len(f.areas) >= 3 and mask_area > 1.3 * f.ref(f.areas, np.inf))):
