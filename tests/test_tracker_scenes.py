@@ -152,8 +152,10 @@ def test_a_dark_straw_with_a_highlight_along_it_is_measured_whole(tmp_path, off,
 def test_a_rider_across_a_straw_with_a_highlight_is_never_measured_with_it(tmp_path):
     """The rider of the test above (1.5 px thick, at 40 degrees, drifting across), dark,
     touching a dark straw with a highlight along it from the first frame: the straw is
-    measured by its body, and the rider's arms beyond its band flag the frame (before:
-    51 of 80 frames unflagged, 25 of them 0.5-5.6 px off)."""
+    measured by its body within its core's band, which leaves the rider out: 72 of 80
+    frames unflagged, within 0.34 px (median 0.07). Before the band the rider's arms
+    beyond the body's band flagged 40 or more frames; before that, 51 of 80 frames were
+    unflagged, 25 of them 0.5-5.6 px off."""
     rng = np.random.default_rng(11)
     n = 80
     bg = texture(SHAPE, rng=rng, mean=120.0, contrast=10.0)
@@ -171,8 +173,7 @@ def test_a_rider_across_a_straw_with_a_highlight_is_never_measured_with_it(tmp_p
         frames.append(np.clip(np.rint(img + rng.normal(0, 1.0, SHAPE)), 0, 255)
                       .astype(np.uint8))
     tr = _track(tmp_path, frames)
-    _check(tr, path, min_usable=1)
-    assert np.count_nonzero(tr.data["flags"].to_numpy() & MERGED) >= 40
+    _check(tr, path, min_usable=60)
 
 
 # --------------------------------------------------------------------- a person

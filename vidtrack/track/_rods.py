@@ -11,7 +11,8 @@ import copy
 import cv2
 import numpy as np
 
-from vidtrack.track._segment import measure, other_touching, trim_to_rod, work_margin
+from vidtrack.track._segment import (measure, measure_mixed, other_touching, trim_to_rod,
+                                     work_margin)
 from vidtrack.track._thin import THIN_PX
 
 #: A rod's coverage share beyond its band (``Blob.off_axis``) above which something is
@@ -104,6 +105,13 @@ def rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area):
         return None, 0
     b2 = copy.copy(b)
     measure(work, b2, lv, width=ref_w, length=ref_len)
+    if b2.banded:
+        # a rod of both polarities (a highlight along it): its core's band leaves out
+        # what rides beside it, without the cut across its ends at its clean length (a
+        # straw turning is longer than in its clean frames)
+        b2 = copy.copy(b)
+        measure_mixed(reg.work(group, lv, margin=work_margin(ref_w, ref_len, b.bbox)), b2,
+                      rod=True)
     fill = rod_fill(b2)
     if not (b2.area > 0 and (fill is None or fill >= FILL_MIN * f.ref(f.fills, fill))
             and b2.off_axis <= OFF_AXIS_MAX

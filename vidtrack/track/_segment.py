@@ -46,6 +46,11 @@ READABLE = 0.6
 #: 0.030 px RMS centroid error with [0, 1], 0.015 px without the cut; on lossless footage
 #: both are below 0.01 px). The wide range only stops gross values.
 COVERAGE_RANGE = (-1.0, 2.0)
+#: A rod of both polarities: its core is where its main polarity shows at least this
+#: share of its level (a rider of half the contrast never does), and its band reaches
+#: :data:`CORE_EDGE_PX` beyond the core's farthest pixel.
+CORE = 0.75
+CORE_EDGE_PX = 1.5
 
 #: Pixels kept round a region's detections: the closing's and the dilation's reach, + 1.
 _CROP_MARGIN = 3
@@ -92,6 +97,9 @@ class Blob:
     # percentile): a thin straw with a fainter rod or a shadow attached is still a line
     strong_shape: tuple = (np.nan, np.nan)
     fitted: bool = False      # a thin straw's centre from its own line fitted (_thin)
+    separated: tuple = None   # (u, v, area, angle, length, width, off_axis) on its core's
+    #                           band, of a rod of both polarities measured whole
+    banded: bool = False      # a rod of both polarities measured on its core's band
     uniform: float = 0.0      # the core's share of the region it closes (1: one level)
 
 
@@ -653,7 +661,7 @@ def _band_fill(c, sup, unread, readable, *, width, length):
     return band
 
 
-def measure(work, blob, level, *, width=None, length=None, thin=None):
+def measure(work, blob, level, *, width=None, length=None, thin=None, separate=True):
     """Coverage-weighted centroid, area, orientation and length of the straw (in place).
 
     Parameters
@@ -672,6 +680,9 @@ def measure(work, blob, level, *, width=None, length=None, thin=None):
         its line is fitted when this frame's strongest pixels are a thin line too;
         False: they were not (not fitted); None: not known (fitted when this frame's
         are).
+    separate : bool
+        A rod of both polarities is measured on its core's band (:func:`measure_mixed`;
+        False: whole, the band's measurement in ``blob.separated``).
 
     Returns
     -------
@@ -710,7 +721,7 @@ def measure(work, blob, level, *, width=None, length=None, thin=None):
     lit = cv2.erode(work.sel, _K3).view(bool) & (d * den < 0) & (np.abs(d) > t)
     if np.count_nonzero(lit) >= max(3, 0.05 * np.count_nonzero(work.sel)) and \
             not (thin and _thin_line(c, sup, readable)):
-        measure_mixed(work, blob, rod=True)
+        measure_mixed(work, blob, rod=True, separate=separate)
         blob.level = level
         return blob
     unread = sup & ~readable
@@ -804,12 +815,14 @@ def _thin_line(c, sup, readable):
     return line is not None and line[0] < THIN_PX and line[1] >= 2.0 * THIN_PX
 
 
-def _detections_off_axis(work, blob, ad, top):
+def _detections_off_axis(work, blob, ad, top, *, sel=None):
     """:func:`_off_axis` of a rod measured by its body (:func:`measure_mixed`): of its
     detections, each weighted by its change ``ad`` (up to ``top``, the 90th percentile of
     them), about the body's axis. What is attached across or beside the rod, and was
-    closed into its body, shows there."""
-    sel = work.sel.view(bool)
+    closed into its body, shows there. ``sel``: the detections that are the rod's
+    (default: all)."""
+    if sel is None:
+        sel = work.sel.view(bool)
     if not sel.any() or not blob.area > 0:
         return 0.0
     det = np.where(sel, np.minimum(ad / max(top, np.float32(1e-6)), np.float32(1.0)),
@@ -1078,11 +1091,16 @@ def measure_silhouette(work, blob):
     return _from_moments(blob, c, work.origin)
 
 
-def measure_mixed(work, blob, *, rod=None):
+def measure_mixed(work, blob, *, rod=None, separate=True):
     """Centroid etc. of an object of both polarities (in place): a rod (a dark straw
     with a highlight along it) by its body, anything else by :func:`measure_silhouette`.
     ``rod``: whether it is one (as its clean frames were: a straw seen end on still is);
-    None: when this frame's body is 3 times as long as wide.
+    None: when this frame's body is 3 times as long as wide. A rod's body is taken
+    within its core's band (:func:`_core_band`): a fainter rod riding along it or
+    across it, closed into its body, is left out. ``separate`` False: the rod is
+    measured whole, its band's measurement kept in ``blob.separated`` (the blobs a
+    straw is chosen among are measured whole: cutting what its blade holds in some
+    frames and not in others would break its path).
 
     The body is what differs from the background by at least 0.15 of the object's
     contrast (the 90th percentile of ``|f - b|``; what the closing adds and
@@ -1103,7 +1121,6 @@ def measure_mixed(work, blob, *, rod=None):
         return blob
     d = work.d
     ad = np.abs(d)
-    zero = np.float32(0.0)
     top = np.float32(np.percentile(ad[sel], 90))
     strong = sel & (ad >= 0.25 * top)
     faint = (sel & (ad > 0.3 * top)).view(np.uint8)
@@ -1116,6 +1133,28 @@ def measure_mixed(work, blob, *, rod=None):
         rod = probe.area > 0 and probe.length >= 3.0 * max(probe.width, 1.0)
     if not rod:
         return measure_silhouette(work, blob)
+    band = _core_band(d, sel, strong)
+    if band is not None and not separate:
+        sep = _rod_body(work, copy.copy(blob), d, ad, top, sel, strong, body, band)
+        if sep.area > 0:
+            blob.separated = (sep.u, sep.v, sep.area, sep.angle, sep.length, sep.width,
+                              sep.off_axis)
+        band = None
+    return _rod_body(work, blob, d, ad, top, sel, strong, body, band)
+
+
+def _rod_body(work, blob, d, ad, top, sel, strong, body, band):
+    """:func:`measure_mixed` of a rod (in place), from its detections ``sel``, their
+    changes ``d`` and ``ad = |d|`` (``top``: its 90th percentile), the strong ones and
+    the closed body; within ``band`` when given (:func:`_core_band`)."""
+    zero = np.float32(0.0)
+    blob.banded = band is not None
+    if band is not None:
+        # a fainter rod riding along it or across it, closed into its body: the rod is
+        # its core's band
+        body = body & band
+        sel = sel & band
+        strong = strong & band
     # (its largest piece: a speck of compression's ringing beside it would stretch the
     # hull over the background)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(body.view(np.uint8), connectivity=8)
@@ -1130,6 +1169,8 @@ def measure_mixed(work, blob, *, rod=None):
     edge = cv2.dilate(bu8, _K3).view(bool) & ~inner & ~work.others
     if work.trimmed is not None:
         edge &= ~work.trimmed
+    if band is not None:
+        edge &= band
     # the polarity round each pixel (of the body's strong pixels within 2 px)
     sgn = np.where(strong & body, np.sign(d), zero).astype(np.float32)
     near = cv2.blur(sgn, (5, 5), borderType=cv2.BORDER_CONSTANT)
@@ -1153,8 +1194,47 @@ def measure_mixed(work, blob, *, rod=None):
     _from_moments(blob, c, work.origin)
     if blob.area > 0:
         _rod_ends_centre(blob, c, work.origin)
-        blob.off_axis = _detections_off_axis(work, blob, ad, top)
+        blob.off_axis = _detections_off_axis(work, blob, ad, top, sel=sel)
     return blob
+
+
+def _core_band(d, sel, strong):
+    """The band of a rod of both polarities round its core, or None when nothing of its
+    detections lies beyond it.
+
+    The core is where the rod's main polarity (of more of its strong pixels) shows at
+    least :data:`CORE` of its level (the median of the strongest third): a dark straw's
+    edges either side of its highlight reach it end to end, a fainter rod riding along
+    it or across it does not. The band runs along the core's axis, from the core's
+    farthest pixel on one side to its farthest on the other, plus :data:`CORE_EDGE_PX`
+    (the blurred edge beyond the fully covered pixels) each side. None also when the
+    core is under 6 pixels or not 3 times as long as wide (seen end on: no axis).
+    """
+    counts = [np.count_nonzero(strong & (d * pol > 0)) for pol in (1.0, -1.0)]
+    pol = 1.0 if counts[0] >= counts[1] else -1.0
+    vals = (d * pol)[strong & (d * pol > 0)]
+    if vals.size < 6:
+        return None
+    k = max(1, vals.size // 3)
+    level = float(np.median(np.partition(vals, vals.size - k)[vals.size - k:]))
+    core = sel & (d * pol >= CORE * level)
+    if np.count_nonzero(core) < 6:
+        return None
+    m = cv2.moments(core.view(np.uint8), True)
+    a, bb, cc = m["mu20"] / m["m00"], m["mu11"] / m["m00"], m["mu02"] / m["m00"]
+    half = 0.5 * (a + cc)
+    rad = np.hypot(0.5 * (a - cc), bb)
+    if half + rad < 9.0 * max(half - rad, 1.0 / 12.0):
+        return None
+    ang = 0.5 * np.arctan2(2.0 * bb, a - cc)
+    cu, cv_ = m["m10"] / m["m00"], m["m01"] / m["m00"]
+    yy, xx = np.indices(sel.shape, dtype=np.float32)
+    perp = -(xx - cu) * np.sin(ang) + (yy - cv_) * np.cos(ang)
+    band = (perp >= float(perp[core].min()) - CORE_EDGE_PX) & \
+        (perp <= float(perp[core].max()) + CORE_EDGE_PX)
+    if np.count_nonzero(sel & ~band) < 3:
+        return None
+    return band
 
 
 def _rod_ends_centre(blob, c, origin):

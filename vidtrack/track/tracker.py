@@ -566,7 +566,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                     b.merged = other_behind(work, lv, width=None, min_area=min_area)
                     b.core, _, b.uniform = trim_attached(work, reach_px=None)
                     sil = measure_silhouette(work, copy.copy(b))
-                    measure(work, b, lv)
+                    measure(work, b, lv, separate=False)
                     if not b.area > 0:
                         continue
                     if sil.area > 0:
@@ -616,7 +616,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             work = reg.work([b.label], np.nan, margin=work_margin(None, None, b.bbox))
             b.contrast, b.edge_w = edge_stats(work)
             b.edge_w_alone = b.edge_w
-            measure_mixed(work, b)
+            measure_mixed(work, b, separate=False)
             if not b.area > 0:
                 continue
             b.polarity = 0
@@ -674,6 +674,9 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         for k, b in enumerate(tr.blobs):
             if f.compact and b.silhouette is not None:
                 b.u, b.v, b.area, b.angle, b.length, b.width = b.silhouette
+            if (not f.compact or f.rod) and b.separated is not None:
+                # a rod of both polarities: on its core's band, as followed from here
+                b.u, b.v, b.area, b.angle, b.length, b.width, b.off_axis = b.separated
             t = tr.points[k][0]
             bu, bv = b.u, b.v
             fill = rod_fill(b)
@@ -810,13 +813,14 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             measure(work, b, lv, width=ref_w if known else None,
                     length=ref_len if known else None,
                     thin=f.thin if len(f.strong_widths) >= 3 else None)
-            if known and not f.thin and len(f.fills) >= 3 and (
+            if known and not f.thin and not b.banded and len(f.fills) >= 3 and (
                     attached_across(b, f) or (
                     len(f.areas) >= 3 and mask_area > 1.3 * f.ref(f.areas, np.inf))):
                 # another rod attached across it or along it (grown): the straw's own band
                 # (its width and length round the axis of its fully covered core)
                 # measured alone, and kept when it has the straw's clean shape (a thin
-                # straw's own line is fitted to the pixels instead: measure)
+                # straw's own line is fitted to the pixels instead, a rod of both
+                # polarities was measured on its core's band: measure)
                 b2, cut = rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area)
                 if cut >= max(3 * min_area, 0.1 * b.mask_area):
                     f.cut_at = i       # something beyond its band: coming apart later
