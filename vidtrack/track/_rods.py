@@ -116,7 +116,7 @@ def rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area):
     if not (b2.area > 0 and (fill is None or fill >= FILL_MIN * f.ref(f.fills, fill))
             and b2.off_axis <= OFF_AXIS_MAX
             and abs(b2.length - ref_len) <= ALONE_LENGTH_TOL * ref_len
-            and (ref_w < THIN_PX or abs(b2.width - ref_w) <= ALONE_WIDTH_TOL * ref_w)):
+            and abs(b2.width - ref_w) <= ALONE_WIDTH_TOL * ref_w):
         return None, dropped
     b2.mask_area = int(np.count_nonzero(work.sel))
     # something of the other polarity still touching the band (a blade) is behind it;

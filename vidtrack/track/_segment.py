@@ -519,11 +519,6 @@ def trim_to_rod(work, *, width, length, core=0.75):
     c = np.zeros_like(work.d)
     np.divide(work.d, work.den, out=c, where=readable)
     full = sel & readable & (c >= core)
-    if np.count_nonzero(full) < 3 and width < THIN_PX:
-        # a thin straw seldom covers a pixel fully: its strongest pixels are its core
-        pos = c[sel & readable & (c > 0)]
-        if pos.size >= 3:
-            full = sel & readable & (c >= np.float32(0.5 * np.percentile(pos, 90)))
     if np.count_nonzero(full) < 3:
         return None
     m = cv2.moments(full.view(np.uint8), True)
@@ -537,7 +532,7 @@ def trim_to_rod(work, *, width, length, core=0.75):
     along = (xx - cu) * np.cos(ang) + (yy - cv_) * np.sin(ang)
     perp = -(xx - cu) * np.sin(ang) + (yy - cv_) * np.cos(ang)
     # (a thin straw's width is the pixel grid's: its band is the thin limit's)
-    half = 0.5 * max(width, THIN_PX) + 1.0 if width < THIN_PX else 0.5 * width + 1.0
+    half = 0.5 * max(width, THIN_PX) + 1.0
     band = (np.abs(perp) <= half) & (np.abs(along) <= 0.5 * length + 1.0)
     drop = sel & ~band
     n = int(np.count_nonzero(drop))
