@@ -98,6 +98,52 @@ def test_unchanged_run_is_reused_and_force_reruns(vidtrack_cli, two_view_run):
     assert forced["coefficients"] == first["coefficients"]          # deterministic
 
 
+def test_verbose_says_what_each_view_tracked(vidtrack_cli, two_view_run):
+    """``-v`` names what both views' tracking found, the one tracked in the worker
+    process too (before: only the view tracked in the calling process was said)."""
+    res = fit(vidtrack_cli, two_view_run, "--force", "-v", "--no-report")
+    assert res.returncode == 0, res.stderr
+    for view in ("front", "top"):
+        said = [ln for ln in res.stderr.splitlines()
+                if ln.startswith(f"vidtrack fit: {view}: ") and "frames tracked" in ln]
+        assert len(said) == 1, (view, res.stderr)
+
+
+def test_records_logged_in_the_worker_are_logged_again_in_the_caller():
+    """What the worker process logs during a job travels (pickled) with its answer and is
+    logged again by the caller's loggers, message, level and label kept."""
+    import logging
+    import pickle
+
+    from vidtrack.run._workers import _Kept, _replay
+
+    source = logging.getLogger("vidtrack.track.tracker")
+    kept = _Kept(logging.INFO)
+    source.addHandler(kept)
+    try:
+        source.warning("front: %d frames", 3, extra={"label": "note"})
+        source.debug("not kept: below the level")
+    finally:
+        source.removeHandler(kept)
+    records = pickle.loads(pickle.dumps(kept.take()))
+    assert kept.take() == []
+    got = []
+
+    class Catch(logging.Handler):
+        def emit(self, record):
+            got.append(record)
+
+    catch = Catch()
+    top = logging.getLogger("vidtrack")
+    top.addHandler(catch)
+    try:
+        _replay(records)
+    finally:
+        top.removeHandler(catch)
+    assert [(r.name, r.levelno, r.getMessage(), r.label) for r in got] == [
+        ("vidtrack.track.tracker", logging.WARNING, "front: 3 frames", "note")]
+
+
 def test_front_view_only_reports_k4_not_determined(vidtrack_cli, tmp_path):
     run = synth(vidtrack_cli, tmp_path / "front", "--views", "front", "--flight-s", "0.3")
     record = json.loads(fit(vidtrack_cli, run, "--json").stdout)

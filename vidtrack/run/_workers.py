@@ -13,9 +13,13 @@ module written for it (as the command line's is) survives; in a thread decoding 
 OpenCV's operations overlap, the tracker's Python does not.
 
 Either way, a failure of the view raises its error in the caller, and :meth:`stop`
-ends the worker whatever it is doing (the caller failed or Ctrl-C).
+ends the worker whatever it is doing (the caller failed or Ctrl-C). What the process
+logs (at the level the caller's ``vidtrack`` logger had when it was spawned) is sent
+back with each job's answer and logged again in the caller (``vidtrack fit -v`` says
+what both views did).
 """
 
+import logging
 import signal
 import sys
 
@@ -89,13 +93,58 @@ def _columns(frame):
     return {c: frame[c].to_numpy() for c in frame.columns}
 
 
-def _send(conn, status, value, what):
+#: The loggers whose records the worker process sends back (vidtrack.cli.LOGGERS).
+_LOGGERS = ("vidtrack", "fits", "calibration")
+
+
+class _Kept(logging.Handler):
+    """Keeps the records of a job, as plain fields, to send with its answer."""
+
+    def __init__(self, level):
+        super().__init__(level)
+        self.records = []
+
+    def emit(self, record):
+        try:
+            self.records.append({"name": record.name, "levelno": record.levelno,
+                                 "levelname": record.levelname, "msg": record.getMessage(),
+                                 "label": getattr(record, "label", None)})
+        except Exception:                          # as logging's own handlers do
+            self.handleError(record)
+
+    def take(self):
+        out, self.records = self.records, []
+        return out
+
+
+def _keep_logs(level):
+    """Install a :class:`_Kept` handler at ``level`` on this process's loggers."""
+    kept = _Kept(level)
+    for name in _LOGGERS:
+        logger = logging.getLogger(name)
+        logger.addHandler(kept)
+        logger.setLevel(level)
+    return kept
+
+
+def _replay(records):
+    """Log again in this process what the worker logged."""
+    for fields in records:
+        record = logging.makeLogRecord(dict(fields, args=None))
+        if record.label is None:
+            del record.label
+        logger = logging.getLogger(record.name)
+        if logger.isEnabledFor(record.levelno):
+            logger.handle(record)
+
+
+def _send(conn, status, value, what, logs=()):
     try:
-        conn.send((status, value))
+        conn.send((status, value, list(logs)))
     except OSError:                # the caller is gone: _process_main ends quietly
         raise
     except Exception as exc:       # e.g. an exception that does not pickle
-        conn.send(("error", RuntimeError(f"{what}: {value!r} ({exc})")))
+        conn.send(("error", RuntimeError(f"{what}: {value!r} ({exc})"), list(logs)))
 
 
 def _exit_with_parent():
@@ -129,15 +178,16 @@ def _warm_up_plots():
     _html.png_bytes(_html.figure(1, 1))   # fonts and the Agg canvas, once
 
 
-def _process_main(conn):
-    """Body of the worker process: serve the jobs that come down ``conn`` until it closes."""
+def _process_main(conn, level=logging.WARNING):
+    """Body of the worker process: serve the jobs that come down ``conn`` until it closes;
+    what it logs at ``level`` and above goes back with each answer."""
     # Ctrl-C reaches the whole process group: the caller stops this process itself, by
     # SIGTERM, on which it exits as from an error (finalisers run: no leaked semaphore)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))
     _exit_with_parent()
     try:
-        _serve(conn)
+        _serve(conn, _keep_logs(level))
     except (EOFError, OSError):
         # the caller went away mid-job (its end of the pipe closed): nothing to report
         # to, and nothing to print on a terminal that is no longer its own
@@ -148,12 +198,13 @@ def _process_main(conn):
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
-def _serve(conn):
+def _serve(conn, kept=None):
     """Jobs: ``("track", scene, folder, name, settings, quiet, report)`` -> the Track's
     fields; ``("views", columns)`` -> nothing (the tracks plot is drawn and kept);
     ``("page", record, curves, world)`` -> report.html's text. A job's error goes back
     in its place. After a track job with ``report`` matplotlib is loaded at once, while
-    the caller merges and fits (once per process: a run's throws share it)."""
+    the caller merges and fits (once per process: a run's throws share it). ``kept``: the
+    records logged meanwhile, sent with each answer."""
     from vidtrack.report.run_page import render_html, tracks_image
 
     warm, tracks_img = False, None
@@ -185,7 +236,7 @@ def _serve(conn):
             raise
         except BaseException as exc:              # re-raised in the caller
             result = ("error", exc)
-        _send(conn, *result, f"the worker's {kind} job")
+        _send(conn, *result, f"the worker's {kind} job", kept.take() if kept else ())
         if kind == "track" and result[0] == "ok" and report and not warm:
             try:
                 _warm_up_plots()
@@ -212,8 +263,9 @@ class ViewProcess:
         ctx = multiprocessing.get_context("spawn")
         self.name = None
         self.conn, child = ctx.Pipe()
-        self.proc = ctx.Process(target=_process_main, args=(child,), name="vidtrack-worker",
-                                daemon=True)
+        level = logging.getLogger("vidtrack").getEffectiveLevel()
+        self.proc = ctx.Process(target=_process_main, args=(child, level),
+                                name="vidtrack-worker", daemon=True)
         self.proc.start()
         child.close()
 
@@ -225,20 +277,23 @@ class ViewProcess:
 
     def _result(self, what):
         try:
-            status, value = self.conn.recv()
+            status, value, logs = self.conn.recv()
         except EOFError:
             self.proc.join()
             raise WorkerGone(f"the worker process ended while {what} (exit code "
                              f"{self.proc.exitcode})") from None
+        _replay(logs)
         if status != "ok":
             raise value
         return value
 
     def track(self):
         """The view's Track (its error raised here)."""
-        from vidtrack.track.tracker import Track
+        from vidtrack.track.tracker import Track, log_tracked
 
-        return Track.from_parts(self._result(f"tracking view {self.name}"))
+        tr = Track.from_parts(self._result(f"tracking view {self.name}"))
+        log_tracked(tr)
+        return tr
 
     def send_tracks(self, views):
         """The merged tracks ({view: rows}), for the report's tracks plot (drawn now)."""

@@ -425,13 +425,17 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
         source, background=background, view=view, k_sigma=k_sigma, min_area_px=min_area_px,
         max_gap=max_gap, blade_region=blade_region, centre_line_px=centre_line_px,
         warmup_frames=warmup_frames, quiet=quiet, cancel=cancel, target=target))
+    log_tracked(tr)
+    return tr
+
+
+def log_tracked(tr):
+    """Log what a view's tracking found (INFO) and its notes (DEBUG)."""
     log.info("%s: %d frames tracked, %d usable; release frame %s (%s)", tr.view or "view",
              len(tr.data), int(np.count_nonzero(tr.usable)), tr.release_frame,
              tr.release_note)
     for note in tr.notes:
         log.debug("%s: %s", tr.view or "view", note)
-    return tr
-
 
 def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
                 max_gap=5, blade_region=None, centre_line_px=None, warmup_frames=None,
