@@ -319,6 +319,34 @@ def test_fit_against_truth(fitted, name):
         assert c["value"] == pytest.approx(truth["truth"]["k"][k], rel=tol), k
 
 
+def test_a_highlighted_straw_with_a_rider_across_it_is_measured_without_it(tmp_path):
+    """``--straw-polarity dark --highlight 0.95 --rider crossing``: the front view's straw,
+    whose first frames already hold the rider across it, is still learnt as a rod (its
+    shape on its core's band) and measured on that band: 314 of 372 frames unflagged,
+    within 0.38 px (median 0.11). Before: 332 unflagged at a median 2.4 px, up to 5.2 px
+    (the straw measured whole, rider included). Its fit is not tested: in the top view
+    the rider, flying while the straw still rides the blade, is taken, the views disagree
+    and the fit is refused (docs/tracker.md, limits)."""
+    from conftest import run_vidtrack
+
+    from vidtrack.track.tracker import track
+
+    out = tmp_path / "run"
+    res = run_vidtrack("synth", out, *BASE, "--straw-polarity", "dark", "--highlight", "0.95",
+                       "--rider", "crossing", "-q")
+    assert res.returncode == 0, res.stderr
+    tab = json.loads((out / "truth.json").read_text())["views"]["front"]["per_frame"]
+    with open_source(out / "front.avi", fps=1200) as src:
+        tr = track(src, view="front")
+    d = tr.data
+    ok = tr.usable
+    err = np.hypot(d["u_px"].to_numpy() - np.array(tab["u_coverage_px"], float),
+                   d["v_px"].to_numpy() - np.array(tab["v_coverage_px"], float))
+    assert ok.sum() >= 0.5 * len(d), int(ok.sum())
+    assert np.all(err[ok] <= 0.5), [(int(i), round(float(err[i]), 2))
+                                     for i in np.flatnonzero(ok & (err > 0.5))][:10]
+
+
 # ------------------------------------------------------- at vidtrack synth's own scale
 #
 # ``vidtrack synth`` with no size options draws a straw 0.1 m long and 6 mm thick at

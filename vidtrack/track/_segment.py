@@ -1123,12 +1123,15 @@ def measure_mixed(work, blob, *, rod=None, separate=True):
     body &= ~work.others
     if not body.any():
         return measure_silhouette(work, blob)
+    band = _core_band(d, sel, strong) if rod is not False else None
     if rod is None:
-        probe = _from_moments(copy.copy(blob), body.astype(np.float32), (0, 0))
+        # (a rod with a fainter rod across it, closed into its body, is a rod: its body
+        # within its core's band is judged)
+        probe = _from_moments(copy.copy(blob), (body if band is None else body & band)
+                              .astype(np.float32), (0, 0))
         rod = probe.area > 0 and probe.length >= 3.0 * max(probe.width, 1.0)
     if not rod:
         return measure_silhouette(work, blob)
-    band = _core_band(d, sel, strong)
     if band is not None and not separate:
         sep = _rod_body(work, copy.copy(blob), d, ad, top, sel, strong, body, band)
         if sep.area > 0:

@@ -73,6 +73,7 @@ import math
 from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -659,8 +660,12 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
     def start_following(tr):
         f = Follow()
         f.mixed = tr.polarity == 0
-        f.compact = f.mixed or not (rodlike_run(tr.blobs) or thin_line_run(tr.blobs))
-        f.rod = f.mixed and rodlike_run(tr.blobs)
+        # (a rod of both polarities with something across it: its shape on its core's band)
+        shapes = [b if b.separated is None else
+                  SimpleNamespace(length=b.separated[4], width=b.separated[5])
+                  for b in tr.blobs]
+        f.compact = f.mixed or not (rodlike_run(shapes) or thin_line_run(tr.blobs))
+        f.rod = f.mixed and rodlike_run(shapes)
         if f.compact:
             # frames before the tracklet's blob last split or grew at once (the object
             # leaving what it rode on) were of something else too: they are read again
