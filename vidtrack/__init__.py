@@ -29,11 +29,15 @@ from vidtrack import _moved
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
+#: The loggers of the three packages (vidtrack, and the two it imports): what the
+#: command line prints, and what a worker process sends back to its caller.
+LOGGERS = ("vidtrack", "fits", "calibration")
+
 _moved.install()
 
 __version__ = "0.2.0"
 
-__all__ = ["VidtrackError", "__version__"]
+__all__ = ["LOGGERS", "VidtrackError", "__version__"]
 
 
 def __getattr__(name):

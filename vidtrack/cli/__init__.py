@@ -20,6 +20,8 @@ import logging
 import os
 import sys
 
+from vidtrack import LOGGERS  # the loggers configure_logging sets (re-exported)
+
 # One BLAS thread per process, set before numpy loads: vidtrack's matrices are small
 # (hundreds of rows), where BLAS threads gain nothing, and the work is already spread
 # over the cores by view and by run; threaded BLAS spinning on cores that the tracker
@@ -34,10 +36,6 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
 #: Subcommands in the order ``vidtrack --help`` lists them (module names in this package).
 COMMANDS = ("init", "fit", "overlay", "report", "anova", "predict", "synth", "frames",
             "calibrate", "bench")
-
-
-#: The packages whose loggers the command line shows on stderr.
-LOGGERS = ("vidtrack", "fits", "calibration")
 
 
 def _load(name):

@@ -93,10 +93,6 @@ def _columns(frame):
     return {c: frame[c].to_numpy() for c in frame.columns}
 
 
-#: The loggers whose records the worker process sends back (vidtrack.cli.LOGGERS).
-_LOGGERS = ("vidtrack", "fits", "calibration")
-
-
 class _Kept(logging.Handler):
     """Keeps the records of a job, as plain fields, to send with its answer."""
 
@@ -120,7 +116,9 @@ class _Kept(logging.Handler):
 def _keep_logs(level):
     """Install a :class:`_Kept` handler at ``level`` on this process's loggers."""
     kept = _Kept(level)
-    for name in _LOGGERS:
+    from vidtrack import LOGGERS
+
+    for name in LOGGERS:
         logger = logging.getLogger(name)
         logger.addHandler(kept)
         logger.setLevel(level)
