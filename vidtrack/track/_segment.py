@@ -452,6 +452,13 @@ def read_level(region, blob):
     return float(np.median(f[top]))
 
 
+def _top_third_median(vals):
+    """Median of the largest third of ``vals`` (a 1-D array, not empty): an object's
+    level from its most changed pixels, which are the fully covered ones."""
+    k = max(1, vals.size // 3)
+    return float(np.median(np.partition(vals, vals.size - k)[vals.size - k:]))
+
+
 def other_touching(work, *, width, min_area):
     """Something of the other polarity touches the straw: solid (it survives a 3 x 3
     opening) and reaching beyond the 2-pixel seam where compression rings round the
@@ -1179,9 +1186,7 @@ def _rod_body(work, blob, d, ad, top, sel, strong, body, band):
         mine = strong & body & (d * pol > 0)
         if not mine.any():
             continue
-        vals = (d * pol)[mine]
-        k = max(1, vals.size // 3)
-        level = float(np.median(np.partition(vals, vals.size - k)[vals.size - k:]))
+        level = _top_third_median((d * pol)[mine])
         loc = cv2.dilate(np.where(mine, d * pol, zero), _K5)
         loc = np.where(loc >= 0.5 * level, loc, np.float32(level))
         ref = np.where(side == pol, loc, ref)
@@ -1213,21 +1218,14 @@ def _core_band(d, sel, strong):
     vals = (d * pol)[strong & (d * pol > 0)]
     if vals.size < 6:
         return None
-    k = max(1, vals.size // 3)
-    level = float(np.median(np.partition(vals, vals.size - k)[vals.size - k:]))
-    core = sel & (d * pol >= CORE * level)
+    core = sel & (d * pol >= CORE * _top_third_median(vals))
     if np.count_nonzero(core) < 6:
         return None
-    m = cv2.moments(core.view(np.uint8), True)
-    a, bb, cc = m["mu20"] / m["m00"], m["mu11"] / m["m00"], m["mu02"] / m["m00"]
-    half = 0.5 * (a + cc)
-    rad = np.hypot(0.5 * (a - cc), bb)
-    if half + rad < 9.0 * max(half - rad, 1.0 / 12.0):
+    cu, cv_, ca, sa, lam1, lam2 = _axis(core.astype(np.float32))
+    if lam1 < 9.0 * max(lam2, 1.0 / 12.0):
         return None
-    ang = 0.5 * np.arctan2(2.0 * bb, a - cc)
-    cu, cv_ = m["m10"] / m["m00"], m["m01"] / m["m00"]
     yy, xx = np.indices(sel.shape, dtype=np.float32)
-    perp = -(xx - cu) * np.sin(ang) + (yy - cv_) * np.cos(ang)
+    perp = -(xx - cu) * sa + (yy - cv_) * ca
     band = (perp >= float(perp[core].min()) - CORE_EDGE_PX) & \
         (perp <= float(perp[core].max()) + CORE_EDGE_PX)
     if np.count_nonzero(sel & ~band) < 3:
