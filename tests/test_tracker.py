@@ -14,7 +14,8 @@ from vidtrack.errors import TrackError
 from vidtrack.footage import open_source
 from vidtrack.synth import SynthSpec, straw_pose
 from vidtrack.track.tracker import (BLADE, BORDER, FLAGS, LOST, MERGED, PRE_RELEASE, PREDICTED,
-                              TRACK_COLUMNS, _release_evidence, describe_flags, track)
+                              TRACK_COLUMNS, describe_flags, track)
+from vidtrack.track._pass import _release_evidence
 from vidtrack.track._segment import Segmenter, measure, read_level, work_margin
 
 

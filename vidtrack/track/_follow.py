@@ -1,7 +1,7 @@
 """The running state of the tracker's follower: the object's reference size, shape and
 grey level from its clean frames, its prediction, and what moves near it.
 
-Internal to :mod:`vidtrack.track.tracker`.
+Internal to the tracker (:mod:`vidtrack.track._pass`, :mod:`vidtrack.track._step`).
 """
 
 import statistics

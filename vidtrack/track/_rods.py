@@ -3,7 +3,8 @@ rectangle its moments describe it fills, its coverage beyond its band), the rod 
 alone on its own band when something is attached across it, and whether a blob, or a run
 of them, is a rod at all (long or thin) rather than an object of any shape.
 
-Internal to :mod:`vidtrack.track.tracker` and :mod:`vidtrack.track._select`.
+Internal to the tracker (:mod:`vidtrack.track._pass`, :mod:`vidtrack.track._step`,
+:mod:`vidtrack.track._search`) and :mod:`vidtrack.track._select`.
 """
 
 import copy

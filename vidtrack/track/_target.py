@@ -2,7 +2,7 @@
 its pixel, and the one-line message that lists the candidates when the automatic choice
 is ambiguous (with the ``target`` line that settles it).
 
-Internal to :mod:`vidtrack.track.tracker`.
+Internal to the tracker (:mod:`vidtrack.track._pass`).
 """
 
 import numpy as np

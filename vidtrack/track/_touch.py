@@ -1,7 +1,7 @@
 """What touches the object the tracker follows, in the other polarity: a shadow beside
 it (blurred edges, a copy of it) or something behind it.
 
-Internal to :mod:`vidtrack.track.tracker`.
+Internal to the tracker (:mod:`vidtrack.track._step`, :mod:`vidtrack.track._search`).
 """
 
 import cv2

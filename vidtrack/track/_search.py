@@ -1,0 +1,139 @@
+"""Finding the object while it is not followed: the moving blobs of a whole frame, each
+polarity and, where an object shows both, the whole, measured for the choice
+(:class:`~vidtrack.track._select.Acquirer`).
+
+Internal to :mod:`vidtrack.track._pass`.
+"""
+
+import copy
+
+import numpy as np
+
+from vidtrack.track._rods import rodlike_run
+from vidtrack.track._segment import (edge_stats, measure, measure_mixed, measure_silhouette,
+                                     other_behind, read_level, trim_attached, work_margin)
+from vidtrack.track._select import on_body
+from vidtrack.track._touch import edge_width
+
+#: Boxes of moving pixels looked at per frame while searching (largest first).
+SEARCH_BOXES = 16
+#: Components per polarity and box measured while searching (largest first).
+SEARCH_PARTS = 24
+
+
+def search_blobs(seg, i, frame, gain, *, shape, min_area, blade=None, near=None,
+                 within=None):
+    """The moving blobs of frame ``i``, measured (each polarity, and the wholes of both).
+
+    ``near``: ``((u, v), reach)`` of the object named or just taken, looked for first
+    however many larger things move elsewhere (boxes are taken largest first);
+    ``within``: ``((u, v), gate)`` where a straw that was followed and lost can be, the
+    only place it is looked for; ``blade``: a boolean mask of the frame, a blob wholly
+    inside it is not looked at; ``shape``: the frame's (rows, cols).
+    """
+    boxes = seg.coarse(frame, gain)
+    if not boxes:
+        return []
+    rows, cols = shape
+    if near is not None:
+        (nu, nv), reach = near
+        boxes.sort(key=lambda bx: max(bx[0] - nu, nu - bx[2], bx[1] - nv,
+                                      nv - bx[3], 0.0) > reach)
+    pad = 2 * seg.decimate + 2
+    if within is not None:
+        p, gate = within
+        boxes = [bx for bx in boxes
+                 if max(bx[0] - p[0], p[0] - bx[2], bx[1] - p[1], p[1] - bx[3]) <= gate]
+    rois = []
+    for x0, y0, x1, y1, _ in boxes[:SEARCH_BOXES]:
+        r = [max(0, x0 - pad), max(0, y0 - pad), min(cols, x1 + pad), min(rows, y1 + pad)]
+        for q in rois:
+            if r[0] < q[2] and q[0] < r[2] and r[1] < q[3] and q[1] < r[3]:
+                q[:] = [min(r[0], q[0]), min(r[1], q[1]), max(r[2], q[2]), max(r[3], q[3])]
+                break
+        else:
+            rois.append(r)
+    out = []
+    for r in rois:
+        parts = {1: [], -1: []}
+        for pol in (1, -1):
+            reg = seg.segment(frame, tuple(r), gain=gain, polarity=pol)
+            if any(c.touches_roi for c in reg.components(min_area, shape)):
+                # the coarse box cut an object: look at a wider box
+                w, h = r[2] - r[0], r[3] - r[1]
+                r = [max(0, r[0] - w // 2 - pad), max(0, r[1] - h // 2 - pad),
+                     min(cols, r[2] + w // 2 + pad), min(rows, r[3] + h // 2 + pad)]
+                reg = seg.segment(frame, tuple(r), gain=gain, polarity=pol)
+            comps = sorted(reg.components(min_area, shape), key=lambda c: -c.mask_area)
+            if len(comps) > SEARCH_PARTS:     # compression noise: the small ones go
+                comps = [c for c in comps[:SEARCH_PARTS] if c.mask_area >= 3 * min_area]
+            for b in comps:
+                if blade is not None:
+                    x0, y0, x1, y1 = b.bbox
+                    if blade[y0:y1, x0:x1].all():
+                        continue
+                lv = read_level(reg, b)
+                work = reg.work([b.label], lv, margin=work_margin(None, None, b.bbox))
+                b.contrast, b.edge_w = edge_stats(work)
+                b.edge_w_alone = edge_stats(work, alone=True)[1]
+                b.merged = other_behind(work, lv, width=None, min_area=min_area)
+                b.core, _, b.uniform = trim_attached(work, reach_px=None)
+                sil = measure_silhouette(work, copy.copy(b))
+                measure(work, b, lv, separate=False)
+                if not b.area > 0:
+                    continue
+                if sil.area > 0:
+                    b.silhouette = (sil.u, sil.v, sil.area, sil.angle, sil.length,
+                                    sil.width)
+                b.level = lv
+                b.polarity = pol
+                b.index = i
+                out.append(b)
+                parts[pol].append(b)
+        if parts[1] and parts[-1]:
+            out.extend(_wholes(seg, i, frame, r, gain, parts, shape=shape, min_area=min_area))
+    return out
+
+
+def _wholes(seg, i, frame, r, gain, parts, *, shape, min_area):
+    """Objects made of parts of both polarities (a dark ball with its highlight)."""
+    reg = seg.segment(frame, tuple(r), gain=gain, polarity=0)
+    found = []
+    for b in reg.components(min_area, shape):
+        x0, y0, x1, y1 = b.bbox
+        inside = {pol: [q for q in parts[pol] if x0 <= q.u <= x1 and y0 <= q.v <= y1]
+                  for pol in (1, -1)}
+        if not inside[1] or not inside[-1]:
+            continue
+        area_of = {pol: sum(q.mask_area for q in inside[pol]) for pol in (1, -1)}
+        big = max((1, -1), key=lambda pol: area_of[pol])
+        small = -big
+        if area_of[small] < max(min_area, 0.03 * b.mask_area):
+            continue
+        # the smaller polarity inside the larger's box (a highlight, an opening),
+        # or parts side by side (a cup half lit, a plush toy's light and dark
+        # sides); a straw on a large blade is neither
+        outer = max(inside[big], key=lambda q: q.mask_area)
+        ox0, oy0, ox1, oy1 = outer.bbox
+        enclosed = all((ox0 <= q.bbox[0] and oy0 <= q.bbox[1] and q.bbox[2] <= ox1
+                        and q.bbox[3] <= oy1) or on_body(q, outer) for q in inside[small])
+        # (a rod riding a blade of the other polarity is its own object; a
+        # patch of another shape is a part, up to a tenth of the whole)
+        rods = any(rodlike_run([q]) for q in inside[small])
+        if not enclosed and area_of[big] > (3.0 if rods else 10.0) * area_of[small]:
+            continue
+        # a shadow beside a bright object is not part of it: blurred edges
+        wb, wd = edge_width(inside[1]), edge_width(inside[-1])
+        if (not enclosed and np.isfinite(wb) and np.isfinite(wd)
+                and (wd >= 1.6 * wb or wb >= 1.6 * wd)):
+            continue
+        work = reg.work([b.label], np.nan, margin=work_margin(None, None, b.bbox))
+        b.contrast, b.edge_w = edge_stats(work)
+        b.edge_w_alone = b.edge_w
+        measure_mixed(work, b, separate=False)
+        if not b.area > 0:
+            continue
+        b.polarity = 0
+        b.index = i
+        found.append(b)
+    return found
