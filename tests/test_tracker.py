@@ -16,7 +16,8 @@ from vidtrack.synth import SynthSpec, straw_pose
 from vidtrack.track.tracker import (BLADE, BORDER, FLAGS, LOST, MERGED, PRE_RELEASE, PREDICTED,
                               TRACK_COLUMNS, describe_flags, track)
 from vidtrack.track._pass import _release_evidence
-from vidtrack.track._segment import Segmenter, measure, read_level, work_margin
+from vidtrack.track._coverage import measure
+from vidtrack.track._segment import Segmenter, read_level, work_margin
 
 
 def _track_view(folder, view, **kw):

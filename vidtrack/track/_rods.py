@@ -12,8 +12,10 @@ import copy
 import cv2
 import numpy as np
 
-from vidtrack.track._segment import (measure, measure_mixed, other_touching, trim_to_rod,
-                                     work_margin)
+from vidtrack.track._coverage import measure, trim_to_rod
+from vidtrack.track._mixed import measure_mixed
+from vidtrack.track._segment import work_margin
+from vidtrack.track._touch import other_touching
 from vidtrack.track._thin import THIN_PX
 
 #: A rod's coverage share beyond its band (``Blob.off_axis``) above which something is

@@ -10,10 +10,12 @@ import copy
 import numpy as np
 
 from vidtrack.track._rods import rodlike_run
-from vidtrack.track._segment import (edge_stats, measure, measure_mixed, measure_silhouette,
-                                     other_behind, read_level, trim_attached, work_margin)
+from vidtrack.track._coverage import measure
+from vidtrack.track._mixed import measure_mixed
+from vidtrack.track._segment import edge_stats, read_level, work_margin
+from vidtrack.track._silhouette import measure_silhouette, trim_attached
 from vidtrack.track._select import on_body
-from vidtrack.track._touch import edge_width
+from vidtrack.track._touch import edge_width, other_behind
 
 #: Boxes of moving pixels looked at per frame while searching (largest first).
 SEARCH_BOXES = 16

@@ -14,11 +14,13 @@ import numpy as np
 from vidtrack.track._flags import APPEARANCE, BORDER, MERGED
 from vidtrack.track._rods import (FILL_MIN, FILL_SEPARATE, OFF_AXIS_MAX, SEPARATE_FRAMES,
                                   attached_across, rod_alone, rod_fill)
-from vidtrack.track._segment import (edge_stats, measure, measure_mixed, measure_silhouette,
-                                     measure_solid, other_behind, other_touching, read_level,
-                                     shade_background, trim_attached, work_margin)
+from vidtrack.track._coverage import measure, shade_background
+from vidtrack.track._mixed import measure_mixed
+from vidtrack.track._segment import edge_stats, read_level, work_margin
+from vidtrack.track._silhouette import measure_silhouette, measure_solid, trim_attached
 from vidtrack.track._thin import FAINTER
-from vidtrack.track._touch import beside_thin, opposite_touching, shadow_beside
+from vidtrack.track._touch import (beside_thin, opposite_touching, other_behind, other_touching,
+                                   shadow_beside)
 
 
 def follow(ps, i, frame, f):

@@ -21,7 +21,7 @@ against the truth's coverage centroid: no distractor, front 0.021 px median and 
 at worst (moments: 0.037 and 0.17), top 0.044 and 0.13 (0.037 and 0.21); a rider riding
 1.5 px beside it, front 0.022 and 0.19 (moments: 0.36 and 0.83).
 
-Internal to :mod:`vidtrack.track._segment`.
+Internal to :mod:`vidtrack.track._coverage`.
 """
 
 import math

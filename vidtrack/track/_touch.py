@@ -4,10 +4,12 @@ it (blurred edges, a copy of it) or something behind it.
 Internal to the tracker (:mod:`vidtrack.track._step`, :mod:`vidtrack.track._search`).
 """
 
+import math
+
 import cv2
 import numpy as np
 
-from vidtrack.track._segment import edge_stats
+from vidtrack.track._segment import K3, K5, edge_stats
 from vidtrack.track._thin import strong_line, strongest
 
 
@@ -95,3 +97,52 @@ def edge_width(parts):
         if run >= half:
             return float(q.edge_w)
     return float(parts[-1].edge_w)
+
+
+def other_touching(work, *, width, min_area):
+    """Something of the other polarity touches the straw: solid (it survives a 3 x 3
+    opening) and reaching beyond the 2-pixel seam where compression rings round the
+    straw's edges (a halo is not an object)."""
+    sel = work.sel
+    opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
+    hug = cv2.dilate(sel, K5)
+    if np.count_nonzero(hug & opp) < min_area:
+        return False
+    k = 2 * int(math.ceil(max(width or 1.0, 1.0))) + 3
+    kernel = np.ones((k + 4, k + 4), np.uint8)
+    solid = cv2.morphologyEx(opp, cv2.MORPH_OPEN, K3)
+    return np.count_nonzero(cv2.dilate(sel, kernel) & ~hug & solid) >= min_area
+
+
+def other_behind(work, level, *, width, min_area):
+    """Take a moving object of the other polarity touching the straw as its background.
+
+    A bright straw riding a dark blade (or crossing a dark object) does not cover the
+    static background but the object: its coverage must be read against the object's
+    level. The object's pixels near the straw (changed *away* from the straw's level)
+    are closed over the straw's width, and inside that region the background becomes the
+    object's median level (in place, in ``work``).
+
+    Returns
+    -------
+    bool
+        True when such an object touches the straw (the frame is then flagged).
+    """
+    if not other_touching(work, width=width, min_area=min_area):
+        return False
+    sel = work.sel
+    opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
+    k = 2 * int(math.ceil(max(width or 1.0, 1.0))) + 3
+    kernel = np.ones((k, k), np.uint8)
+    near = cv2.dilate(sel, kernel).view(bool)
+    obj = opp.view(bool) & near
+    if not obj.any():
+        return True
+    obj_level = np.float32(np.median(work.f[obj]))
+    behind = cv2.morphologyEx(opp, cv2.MORPH_CLOSE, kernel).view(bool) & near
+    b = work.b.copy()
+    b[behind] = obj_level
+    work.b = b
+    work.d = work.f - b
+    work.den = np.float32(level) - b
+    return True

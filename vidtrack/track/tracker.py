@@ -30,10 +30,12 @@ How it works (details in ``docs/tracker.md``):
    last clean positions is segmented; among its blobs the object is the one nearest the
    prediction within a gate (a speck is not it), changes are counted only *towards*
    its own grey level (a shadow is not the straw) until it shows both polarities.
-4. **Measuring it** (:mod:`vidtrack.track._segment`): a rod (a straw) by its coverage
-   (unbiased over a textured background); an object of one grey level by its fully
-   covered core and the ring round it read against its surroundings (what is attached
-   beyond, a shadow, cut off); any other object by its silhouette (holes filled).
+4. **Measuring it**: a rod (a straw) by its coverage (:mod:`vidtrack.track._coverage`,
+   unbiased over a textured background); an object of both polarities by its body
+   (:mod:`vidtrack.track._mixed`); an object of one grey level by its fully covered core
+   and the ring round it read against its surroundings (what is attached beyond, a
+   shadow, cut off); any other object by its silhouette, holes filled
+   (:mod:`vidtrack.track._silhouette`).
    A frame unlike the object's clean frames (grown, shrunk at a stroke, a rod's shape
    broken by something across it) is flagged, not measured as the object.
 5. **Afterwards** (:mod:`vidtrack.track._refine`): sizes off the clean frames round them

@@ -1,0 +1,187 @@
+"""An object of any shape measured by its silhouette (holes filled), or, for an object
+of one grey level, by its fully covered core and the edge round it read against its
+surroundings (what is attached beyond, a shadow, cut off).
+
+Internal to the tracker (:mod:`vidtrack.track._step`, :mod:`vidtrack.track._search`).
+"""
+
+import math
+
+import cv2
+import numpy as np
+
+from vidtrack.track._moments import from_moments
+from vidtrack.track._segment import K3, K5, READABLE
+
+
+def fill_holes(mask):
+    """``mask`` (uint8 0/1 or 0/255) with the holes inside its components filled (bool)."""
+    m = (mask > 0).astype(np.uint8)
+    rows, cols = m.shape
+    pad = np.zeros((rows + 2, cols + 2), np.uint8)
+    pad[1:-1, 1:-1] = m
+    flood = pad.copy()
+    ff = np.zeros((rows + 4, cols + 4), np.uint8)
+    cv2.floodFill(flood, ff, (0, 0), 1)
+    return (pad[1:-1, 1:-1] > 0) | (flood[1:-1, 1:-1] == 0)
+
+
+def trim_attached(work, *, reach_px, along=(0.0, 0.0)):
+    """Drop detections not within ``reach_px`` of the object's fully covered core (None:
+    only measure the core).
+
+    For an object of one grey level (``work.den`` from its level): its pixels show its
+    level whatever the background, so their coverage ``c = d / den`` is 1, partial only
+    in a ring at its edge (and a smear along the motion: ``along``, the motion's vector
+    in px per exposure at most; the smear is read off the core, shorter along the
+    motion than across it by the blur's length). What is detected farther out is
+    attached to it, not of it: a shadow of the same polarity (c about 0.5: a lighter
+    darkening, blurred), a reflection. Those pixels are taken out of ``work.sel`` (into
+    ``work.trimmed``: the surroundings the edge is read against).
+
+    Returns
+    -------
+    (int, int, float)
+        The core's pixel count (c >= 0.8), the pixels dropped, and the core's share of
+        the region it closes (holes filled; 1 for an object of one grey level, less for a
+        textured object, which the caller does not trim; 0 when the core's grey levels
+        spread over more than 15 % of its contrast plus twice the noise: shading,
+        texture).
+    """
+    sel = work.sel.view(bool)
+    readable = np.abs(work.den) > np.float32(READABLE) * work.t
+    c = np.zeros_like(work.d)
+    np.divide(work.d, work.den, out=c, where=readable)
+    filled = fill_holes(work.sel)
+    core = (sel & (c >= 0.8)).view(np.uint8)
+    n_core = int(np.count_nonzero(core))
+    if n_core == 0:
+        return 0, 0, 0.0
+    # how solid the core is: its share of the region it closes (a ball of one grey
+    # level: all of it; a textured object's scattered bright patches: little)
+    closed = cv2.morphologyEx(core, cv2.MORPH_CLOSE, K5).view(bool)
+    closed = fill_holes(closed.view(np.uint8)) & filled
+    region = int(np.count_nonzero(closed))
+    uniform = float(np.count_nonzero(core.view(bool) & closed)) / region if region else 0.0
+    # and of one grey level: the core's pixels agree (their spread a small part of the
+    # contrast; a white cup's shading or a toy's fur do not)
+    vals = work.f[core.view(bool)]
+    contrast = float(np.median(np.abs(work.d[core.view(bool)])))
+    if vals.size >= 5 and contrast > 0:
+        q25, q75 = np.percentile(vals, [25, 75])
+        if (q75 - q25) > 0.15 * contrast + 2.0 * float(np.median(work.t)) / 5.0:
+            uniform = 0.0
+    if reach_px is None:
+        return n_core, 0, uniform
+    r = max(1, int(math.ceil(reach_px)))
+    disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    foot = cv2.dilate(core, disk)
+    au, av = along
+    length = float(np.hypot(au, av))
+    if length >= 1.0:
+        # the smear along the motion, as the core shows it: motion blur shortens the
+        # fully covered core along the motion by its length, and spreads half of it
+        # beyond each end (a round object's core is as long as it is wide unblurred)
+        m = cv2.moments(core, True)
+        if m["m00"] > 0:
+            ux, uy = au / length, av / length
+            mu20, mu02, mu11 = m["mu20"] / m["m00"], m["mu02"] / m["m00"], m["mu11"] / m["m00"]
+            var_along = ux * ux * mu20 + 2 * ux * uy * mu11 + uy * uy * mu02
+            var_perp = uy * uy * mu20 - 2 * ux * uy * mu11 + ux * ux * mu02
+            blur = max(0.0, np.sqrt(12.0 * max(var_perp, 0.0))
+                       - np.sqrt(12.0 * max(var_along, 0.0)))
+            blur = min(blur, length, 10.0)
+            au, av, length = 0.5 * blur * ux, 0.5 * blur * uy, 0.5 * blur
+    if length >= 1.0:
+        k = int(math.ceil(length))
+        line = np.zeros((2 * k + 1, 2 * k + 1), np.uint8)
+        cv2.line(line, (k - int(round(au)), k - int(round(av))),
+                 (k + int(round(au)), k + int(round(av))), 1, 1)
+        foot = cv2.dilate(foot, line)
+    drop = filled & ~foot.view(bool)
+    n_drop = int(np.count_nonzero(drop & sel))
+    if n_drop:
+        work.sel = (sel & ~drop).view(np.uint8)
+        work.trimmed = drop
+    return n_core, n_drop, uniform
+
+
+def measure_solid(work, blob):
+    """Centroid etc. of an object of one grey level, its edge read against its
+    surroundings (in place; ``work.den`` from its level).
+
+    Its fully covered core (c >= 0.8) and enclosed holes cover fully. A pixel of the
+    ring round the core (2 px) is partly covered, ``c = (f - b') / (s - b')``, clipped to
+    [0, 1], where ``b'`` is the pixel's static background plus how much the surroundings
+    (2 to 5 px beyond the core) differ from theirs: a shadow falling beside the object
+    darkens what shows between its edge and the shadow, which read against the static
+    background would look like more of the object.
+    """
+    sel = work.sel.view(bool)
+    readable = np.abs(work.den) > np.float32(READABLE) * work.t
+    c = np.zeros_like(work.d)
+    np.divide(work.d, work.den, out=c, where=readable)
+    core = (sel & (c >= 0.8)).view(np.uint8)
+    if not core.any():
+        return measure_silhouette(work, blob)
+    ring_k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
+    far_k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (11, 11))
+    offset = np.zeros_like(work.d)
+    for _ in range(2):
+        # the core, then the surroundings' offset, then the core read against them
+        core_b = fill_holes(core) & ~work.others
+        near = cv2.dilate(core_b.view(np.uint8), ring_k).view(bool)
+        far = cv2.dilate(core_b.view(np.uint8), far_k).view(bool)
+        band = (far & ~near & ~work.others).astype(np.float32)
+        num = cv2.blur(work.d * band, (9, 9), borderType=cv2.BORDER_REPLICATE)
+        cnt = cv2.blur(band, (9, 9), borderType=cv2.BORDER_REPLICATE)
+        offset = np.where(cnt > 0.05, num / np.maximum(cnt, 1e-6), np.float32(0.0))
+        d2 = work.d - offset
+        den2 = work.den - offset
+        c2 = np.zeros_like(work.d)
+        np.divide(d2, den2, out=c2, where=np.abs(den2) > np.float32(READABLE) * work.t)
+        core2 = (sel & (c2 >= 0.8)).view(np.uint8)
+        if not core2.any():
+            break
+        core = core2
+    core_b = fill_holes(core) & ~work.others
+    near = cv2.dilate(core_b.view(np.uint8), ring_k).view(bool)
+    ring = near & ~core_b & ~work.others & (sel | cv2.dilate(work.sel, K3).view(bool))
+    d2 = work.d - offset
+    den2 = work.den - offset
+    ok = ring & (np.abs(den2) > np.float32(READABLE) * work.t)
+    cov = np.zeros_like(work.d)
+    cov[ok] = np.clip(d2[ok] / den2[ok], 0.0, 1.0)
+    cov[core_b] = 1.0
+    return from_moments(blob, cov, work.origin)
+
+
+def measure_silhouette(work, blob):
+    """Centroid, area, orientation and size of an object of any grey levels (in place).
+
+    For an object that is brighter than the background in some parts and darker in
+    others (a dark ball with a highlight, a white cup with a dark opening), or that is
+    textured, no single grey level gives the coverage. Its silhouette does: the detected
+    pixels (either polarity) with their holes filled (where the object's own grey level
+    happens to equal the background's) cover fully; round the edge, a pixel's coverage
+    is its ``|f - b|`` against the largest ``|f - b|`` of the object's interior within
+    2 px (an edge pixel half covered by the object shows half of the nearby interior's
+    contrast), clipped to [0, 1]. Then moments as in :func:`measure`.
+    """
+    sel = work.sel
+    if not sel.any():
+        blob.area = 0.0
+        return blob
+    filled = fill_holes(sel)
+    fu8 = filled.view(np.uint8)
+    inner = cv2.erode(fu8, K3).view(bool)
+    ad = np.abs(work.d)
+    ref = cv2.dilate(np.where(inner, ad, np.float32(0.0)), K5)
+    ref = np.maximum(ref, work.t)
+    edge = (cv2.dilate(fu8, K3).view(bool) & ~inner) & ~work.others
+    if work.trimmed is not None:
+        edge &= ~work.trimmed
+    c = np.zeros_like(ad)
+    c[edge] = np.minimum(ad[edge] / ref[edge], 1.0)
+    c[inner] = 1.0
+    return from_moments(blob, c, work.origin)
