@@ -19,7 +19,8 @@ import numpy as np
 from vidtrack.track._mixed import measure_mixed
 from vidtrack.track._moments import axis, from_moments, share_off_axis
 from vidtrack.track._segment import COVERAGE_RANGE, K3, READABLE
-from vidtrack.track._thin import GAP_MAX_PX, THIN_PX, fit_line, local_centroid, strong_line
+from vidtrack.track._thin import (GAP_MAX_PX, THIN_PX, fit_line, is_thin_line, local_centroid,
+                                 strong_line)
 
 
 def measure(work, blob, level, *, width=None, length=None, thin=None, separate=True):
@@ -161,7 +162,7 @@ def _thin_line(c, sup, readable):
     """The strongest pixels of the positive coverage over the support are a thin line."""
     line = strong_line(np.where(sup & readable, np.maximum(c, np.float32(0.0)),
                                 np.float32(0.0)))
-    return line is not None and line[0] < THIN_PX and line[1] >= 2.0 * THIN_PX
+    return line is not None and is_thin_line(line[0], line[1])
 
 
 def _band_fill(c, sup, unread, readable, *, width, length):

@@ -16,7 +16,7 @@ from vidtrack.track._coverage import measure, trim_to_rod
 from vidtrack.track._mixed import measure_mixed
 from vidtrack.track._segment import work_margin
 from vidtrack.track._touch import other_touching
-from vidtrack.track._thin import THIN_PX
+from vidtrack.track._thin import THIN_PX, is_thin_line
 
 #: A rod's coverage share beyond its band (``Blob.off_axis``) above which something is
 #: attached across it (0 for one rod, blurred or not; 0.1-0.17 for a thin rod crossing a
@@ -65,15 +65,15 @@ def rodlike_run(blobs):
 
 
 def thin_line_run(blobs):
-    """The strongest pixels of ``blobs`` (a tracklet) are a thin line (median width below
-    :data:`FILL_WIDTH_MIN`, length at least 3 times it and 4 px): a thin straw, whatever
+    """The strongest pixels of ``blobs`` (a tracklet) are a thin line (their median width
+    and length: :func:`~vidtrack.track._thin.is_thin_line`): a thin straw, whatever
     fainter thing (a rider, a shadow) its detections also hold."""
     w = [b.strong_shape[0] for b in blobs if np.isfinite(b.strong_shape[0])]
     ln = [b.strong_shape[1] for b in blobs if np.isfinite(b.strong_shape[1])]
     if len(w) < max(3, len(blobs) // 2):
         return False
     w, ln = float(np.median(w)), float(np.median(ln))
-    return w < FILL_WIDTH_MIN and ln >= max(4.0, 3.0 * w)
+    return is_thin_line(w, ln)
 
 
 def rod_fill(blob):

@@ -64,6 +64,13 @@ _F_SCALE = 0.05
 _MAX_SHIFT = 0.25
 
 
+def is_thin_line(width, length):
+    """Strongest pixels (:func:`strong_line`) ``width`` wide and ``length`` long are a
+    thin straw's line: under :data:`THIN_PX` wide, and at least twice that and 3 times
+    their width long (shorter, a straw seen nearly end on is a blob)."""
+    return width < THIN_PX and length >= max(2.0 * THIN_PX, 3.0 * width)
+
+
 def strongest(c):
     """Pixels with at least :data:`_STRONG` of the coverage of its best pixel (a straw
     seen end on is a pixel or two; full coverage at most); None without a covered
