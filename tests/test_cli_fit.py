@@ -378,6 +378,7 @@ def test_inputs_that_disagree_stop_the_fit_unless_accepted(vidtrack_cli, tmp_pat
     line = one_line(res)
     assert "the inputs disagree" in line and "--accept-disagreement" in line
     assert "the views disagree on the X they both see" in line
+    assert "followed another object" in line and "vidtrack overlay" in line
     if name == "top-fps-halved":
         assert "views.top.fps = 600" in line and "0.5 times" in line
     assert not (run / "vidtrack" / "fit.json").exists()

@@ -293,7 +293,9 @@ def cross_checks(world, tracks, mappings, *, g=9.80665, sources=None):
             f"the views disagree on the X they both see by {1000 * world.x_rms_m:.3g} mm "
             f"RMS ({world.x_rms_px:.3g} px over {world.x_points} points; good runs agree "
             f"within {X_RMS_MAX_PX:g} px): check each view's fps, source, scale and "
-            "origin_px", world.x_rms_px, X_RMS_MAX_PX))
+            "origin_px, and whether one view followed another object (vidtrack overlay "
+            "shows each view's track; a target in that view's table names the straw)",
+            world.x_rms_px, X_RMS_MAX_PX))
     sr = speed_ratio(world, tracks, mappings)
     if sr is not None and abs(sr["ratio"] - 1.0) > SPEED_RATIO_TOL:
         ref, other = sr["reference"], sr["other"]
