@@ -497,7 +497,8 @@ class Pass:
                     fu, fv = target[1]
                     raise TrackError(
                         f"{name}: the object at ({fu:g}, {fv:g}) in frame {target[0]} (the "
-                        "target) could not be followed to the next frames")
+                        "target) could not be followed to the next frames: name it in a frame "
+                        "where it flies clear of anything else that moves")
                 continue
             tr = acq.update(tau[i], blobs, accept=self.consistent_with_lost)
             if tr is None and acq.ambiguous and self.lost_state is None and t_idx is None:
