@@ -22,6 +22,15 @@ from vidtrack.track._thin import THIN_PX, is_thin_line
 #: attached across it (0 for one rod, blurred or not; 0.1-0.17 for a thin rod crossing a
 #: straw at 40 degrees).
 OFF_AXIS_MAX = 0.04
+#: A rod more than this many times as wide as its clean frames (``Blob.width``; they at
+#: least :data:`FILL_WIDTH_MIN` wide) holds something beside it: a rod is as wide however
+#: it turns (its length is what foreshortens). Measured on ``vidtrack synth``'s straws
+#: 3.3 to 3.7 px wide, dark, with a highlight, a rider: clean frames at most 1.14 times;
+#: seen end on in the top view with a rider across it that no band leaves out, 1.34 to
+#: 2.3 times (the clean frames' width creeping up as the rider came nearer), at 2 to
+#: 2.8 px from the straw. (A flat straw spinning about its length would be flagged in its
+#: wide frames: this tracker's rods are round.)
+WIDTH_GROWN = 1.3
 #: A rod whose coverage fills less than this fraction of what its clean frames filled
 #: (``area / (length x width)``) has something attached.
 FILL_MIN = 0.8

@@ -12,7 +12,8 @@ import math
 import numpy as np
 
 from vidtrack.track._flags import APPEARANCE, BORDER, MERGED
-from vidtrack.track._rods import (FILL_MIN, FILL_SEPARATE, OFF_AXIS_MAX, SEPARATE_FRAMES,
+from vidtrack.track._rods import (FILL_MIN, FILL_SEPARATE, FILL_WIDTH_MIN, OFF_AXIS_MAX,
+                                  SEPARATE_FRAMES, WIDTH_GROWN,
                                   attached_across, rod_alone, rod_fill)
 from vidtrack.track._coverage import measure, shade_background
 from vidtrack.track._mixed import measure_mixed
@@ -269,7 +270,7 @@ class _Step:
         ps, i, f, p = self.ps, self.i, self.f, self.p
         tau, min_area, store = ps.tau, ps.min_area, ps.store
         reg, blobs, b, group = self.reg, self.blobs, self.b, self.group
-        ref_len, fl = self.ref_len, self.fl
+        ref_len, ref_w, fl = self.ref_len, self.ref_w, self.fl
         # merged with a blob of the same polarity (another straw): the centroid is not
         # the straw's; one of the other polarity was taken as background above
         same = False
@@ -302,6 +303,12 @@ class _Step:
         if rod_shape and b.off_axis > OFF_AXIS_MAX and not (f.thin and b.fitted):
             # (a thin straw's own line fitted to the pixels is not moved by what lies
             # beyond its band)
+            same_shape = False
+        if rod_shape and len(f.widths) >= 3 and ref_w >= FILL_WIDTH_MIN and \
+                b.width > WIDTH_GROWN * ref_w:
+            # a rod wider than its clean frames: something beside it is measured with it
+            # (seen end on, its core is too short for a band to leave it out, and its
+            # fill cannot tell)
             same_shape = False
         if grown:
             # grown since the last clean frame: a merge, unless it grew smoothly (the
