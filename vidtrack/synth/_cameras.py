@@ -546,19 +546,14 @@ def camera_scene_views(spec, views, source_name, release, fmt_number):
 
 def camera_view_truth(spec, view, track, renderer, source, frame=None):
     """``views.<v>`` of truth.json for a pinhole view."""
-    from vidtrack.synth.truth import _json_list, _release_frame_of
+    from vidtrack.synth.truth import (_exposure_extents, _header, _json_list, _pose_columns,
+                                      _release_frame_of, _second_columns, _shape_columns)
 
     n = spec.n_frames
     w, h = view.width, view.height
-    mean_c, ext = zip(*(track.exposure_geometry(i) for i in range(n)))
-    mean_c = np.array(mean_c)
-    ext = np.array(ext)
-    inside = ((ext[:, 0] >= -0.5) & (ext[:, 1] <= w - 0.5) & (ext[:, 2] >= -0.5)
-              & (ext[:, 3] <= h - 0.5))
+    mean_c, ext, inside, reach_border = _exposure_extents(track, n, w, h)
     touches = ((ext[:, 1] > -0.5) & (ext[:, 0] < w - 0.5) & (ext[:, 3] > -0.5)
                & (ext[:, 2] < h - 0.5))
-    reach_border = ((ext[:, 0] < 0.5) | (ext[:, 1] > w - 1.5) | (ext[:, 2] < 0.5)
-                    | (ext[:, 3] > h - 1.5))
     info = [renderer.info[i] for i in range(n)]
     coverage = np.array([f["coverage_px"] for f in info])
     in_view = (coverage > 0) & touches
@@ -567,23 +562,11 @@ def camera_view_truth(spec, view, track, renderer, source, frame=None):
                                  np.array([f["moment_v"] for f in info]) / safe])
     cov = view.distort(cov_ideal)
     cov[~in_view] = np.nan
-    seg = track.end_b_px - track.end_a_px
-    angle = np.arctan2(seg[:, 1], seg[:, 0])
-    angle = np.where(angle > np.pi / 2, angle - np.pi, angle)
-    angle = np.where(angle <= -np.pi / 2, angle + np.pi, angle)
-    seg_len = np.hypot(seg[:, 0], seg[:, 1])
     r = track.radius_frame_px
     silhouette = view.distort(0.5 * (track.end_a_px + track.end_b_px))
     t = track.t
-    table = {
-        "frame": list(range(n)),
-        "t_s": _json_list(t),
-        "phase": ["blade" if ti < 0 else "flight" for ti in t],
-        "x_m": _json_list(track.centre_m[:, 0]),
-        "y_m": _json_list(track.centre_m[:, 1]),
-        "z_m": _json_list(track.centre_m[:, 2]),
-        "u_px": _json_list(track.centre_px[:, 0]),
-        "v_px": _json_list(track.centre_px[:, 1]),
+    table = _pose_columns(track, t)
+    table.update({
         "u_ideal_px": _json_list(track.centre_ideal_px[:, 0]),
         "v_ideal_px": _json_list(track.centre_ideal_px[:, 1]),
         "u_silhouette_px": _json_list(silhouette[:, 0]),
@@ -594,39 +577,16 @@ def camera_view_truth(spec, view, track, renderer, source, frame=None):
         "v_coverage_px": _json_list(cov[:, 1]),
         "depth_m": _json_list(track.depth_m),
         "radius_px": _json_list(r),
-        "angle_rad": _json_list(angle),
-        "length_px": _json_list(seg_len + 2.0 * r),
-        "area_px": _json_list(np.pi * r * r + 2.0 * r * seg_len),
-        "coverage_px": _json_list(coverage),
-        "in_view": [bool(v) for v in in_view],
-        "fully_in_view": [bool(v) for v in inside],
-        "border_touch": [bool(a and b) for a, b in zip(in_view, reach_border)],
-        "blade_overlap": [bool(f["blade_overlap"]) for f in info],
-        "overlap": [bool(f["overlap"]) for f in info],
-    }
+    })
+    table.update(_shape_columns(track, r, coverage, in_view, inside, reach_border, info))
     if track.second:
-        c2, p2 = track.centre2_m, track.centre2_px
+        p2 = track.centre2_px
         with np.errstate(invalid="ignore"):
             vis2 = (np.isfinite(p2[:, 0]) & (p2[:, 0] > -0.5) & (p2[:, 0] < w - 0.5)
                     & (p2[:, 1] > -0.5) & (p2[:, 1] < h - 0.5))
-        table.update({
-            "x2_m": _json_list(c2[:, 0]), "y2_m": _json_list(c2[:, 1]),
-            "z2_m": _json_list(c2[:, 2]),
-            "u2_px": _json_list(p2[:, 0]), "v2_px": _json_list(p2[:, 1]),
-            "in_view2": [bool(v) for v in vis2],
-        })
-    out = {
-        "source": source,
-        "format": spec.output_format,
-        "fps": spec.fps,
-        "fps_container": spec.playback_fps if spec.output_format == "avi" else
-        (float(round(spec.fps)) if spec.output_format == "cine" else None),
-        "frames": n,
-        "width_px": w,
-        "height_px": h,
-        "bit_depth": spec.bit_depth,
-        "camera": camera_truth(view, frame),
-    }
+        table.update(_second_columns(track, vis2))
+    out = _header(spec, source, n, w, h)
+    out["camera"] = camera_truth(view, frame)
     if view.mapping is not None:
         m = view.mapping
         out.update({

@@ -30,9 +30,10 @@ def _json_list(arr):
     return [None if not np.isfinite(v) else float(v) for v in np.asarray(arr, dtype=float)]
 
 
-def _view_truth(spec, view, track, renderer, source):
-    n = spec.n_frames
-    w, h = view.width, view.height
+def _exposure_extents(track, n, w, h):
+    """Each frame's mean exposure centre (n, 2) and extents (n, 4: u min, u max, v min,
+    v max), whether the straw lies wholly inside a ``w`` x ``h`` image, and whether it
+    reaches within a pixel of its border."""
     mean_c, ext = zip(*(track.exposure_geometry(i) for i in range(n)))
     mean_c = np.array(mean_c)
     ext = np.array(ext)
@@ -40,21 +41,14 @@ def _view_truth(spec, view, track, renderer, source):
               & (ext[:, 3] <= h - 0.5))
     reach_border = ((ext[:, 0] < 0.5) | (ext[:, 1] > w - 1.5) | (ext[:, 2] < 0.5)
                     | (ext[:, 3] > h - 1.5))
-    info = [renderer.info[i] for i in range(n)]
-    coverage = np.array([f["coverage_px"] for f in info])
-    in_view = coverage > 0
-    safe = np.where(in_view, coverage, 1.0)
-    cov_u = np.where(in_view, np.array([f["moment_u"] for f in info]) / safe, np.nan)
-    cov_v = np.where(in_view, np.array([f["moment_v"] for f in info]) / safe, np.nan)
-    seg = track.end_b_px - track.end_a_px
-    angle = np.arctan2(seg[:, 1], seg[:, 0])
-    angle = np.where(angle > np.pi / 2, angle - np.pi, angle)
-    angle = np.where(angle <= -np.pi / 2, angle + np.pi, angle)
-    seg_len = np.hypot(seg[:, 0], seg[:, 1])
-    r = track.radius_px
-    t = track.t
-    table = {
-        "frame": list(range(n)),
+    return mean_c, ext, inside, reach_border
+
+
+def _pose_columns(track, t):
+    """truth.json's per-frame columns of time and pose (the rod centre in the world and
+    in the image)."""
+    return {
+        "frame": list(range(len(t))),
         "t_s": _json_list(t),
         "phase": ["blade" if ti < 0 else "flight" for ti in t],
         "x_m": _json_list(track.centre_m[:, 0]),
@@ -62,10 +56,18 @@ def _view_truth(spec, view, track, renderer, source):
         "z_m": _json_list(track.centre_m[:, 2]),
         "u_px": _json_list(track.centre_px[:, 0]),
         "v_px": _json_list(track.centre_px[:, 1]),
-        "u_exposure_px": _json_list(mean_c[:, 0]),
-        "v_exposure_px": _json_list(mean_c[:, 1]),
-        "u_coverage_px": _json_list(cov_u),
-        "v_coverage_px": _json_list(cov_v),
+    }
+
+
+def _shape_columns(track, r, coverage, in_view, inside, reach_border, info):
+    """truth.json's per-frame columns of the rod's image (its angle, length and area from
+    its projected ends and radius ``r`` in px) and of what it covers and touches."""
+    seg = track.end_b_px - track.end_a_px
+    angle = np.arctan2(seg[:, 1], seg[:, 0])
+    angle = np.where(angle > np.pi / 2, angle - np.pi, angle)
+    angle = np.where(angle <= -np.pi / 2, angle + np.pi, angle)
+    seg_len = np.hypot(seg[:, 0], seg[:, 1])
+    return {
         "angle_rad": _json_list(angle),
         "length_px": _json_list(seg_len + 2.0 * r),
         "area_px": _json_list(np.pi * r * r + 2.0 * r * seg_len),
@@ -76,26 +78,22 @@ def _view_truth(spec, view, track, renderer, source):
         "blade_overlap": [bool(f["blade_overlap"]) for f in info],
         "overlap": [bool(f["overlap"]) for f in info],
     }
-    if track.second:
-        c2, p2 = track.centre2_m, track.centre2_px
-        a2, b2 = track.end2_a_px, track.end2_b_px
-        with np.errstate(invalid="ignore"):
-            vis2 = (np.isfinite(p2[:, 0]) & (np.maximum(a2[:, 0], b2[:, 0]) + r > -0.5)
-                    & (np.minimum(a2[:, 0], b2[:, 0]) - r < w - 0.5)
-                    & (np.maximum(a2[:, 1], b2[:, 1]) + r > -0.5)
-                    & (np.minimum(a2[:, 1], b2[:, 1]) - r < h - 0.5))
-        table.update({
-            "x2_m": _json_list(c2[:, 0]), "y2_m": _json_list(c2[:, 1]),
-            "z2_m": _json_list(c2[:, 2]),
-            "u2_px": _json_list(p2[:, 0]), "v2_px": _json_list(p2[:, 1]),
-            "in_view2": [bool(v) for v in vis2],
-        })
-    extra = _distractor_truth(spec, track, info, t) if spec.distractors else None
-    if extra is not None:
-        table.update(extra[0])
-    release = _release_frame_of(t)
-    m = view.mapping
-    out = {
+
+
+def _second_columns(track, vis2):
+    """truth.json's per-frame columns of the second straw (``vis2``: in view)."""
+    c2, p2 = track.centre2_m, track.centre2_px
+    return {
+        "x2_m": _json_list(c2[:, 0]), "y2_m": _json_list(c2[:, 1]),
+        "z2_m": _json_list(c2[:, 2]),
+        "u2_px": _json_list(p2[:, 0]), "v2_px": _json_list(p2[:, 1]),
+        "in_view2": [bool(v) for v in vis2],
+    }
+
+
+def _header(spec, source, n, w, h):
+    """truth.json's fields of a view's footage."""
+    return {
         "source": source,
         "format": spec.output_format,
         "fps": spec.fps,
@@ -105,6 +103,45 @@ def _view_truth(spec, view, track, renderer, source):
         "width_px": w,
         "height_px": h,
         "bit_depth": spec.bit_depth,
+    }
+
+
+def _view_truth(spec, view, track, renderer, source):
+    n = spec.n_frames
+    w, h = view.width, view.height
+    mean_c, _, inside, reach_border = _exposure_extents(track, n, w, h)
+    info = [renderer.info[i] for i in range(n)]
+    coverage = np.array([f["coverage_px"] for f in info])
+    in_view = coverage > 0
+    safe = np.where(in_view, coverage, 1.0)
+    cov_u = np.where(in_view, np.array([f["moment_u"] for f in info]) / safe, np.nan)
+    cov_v = np.where(in_view, np.array([f["moment_v"] for f in info]) / safe, np.nan)
+    r = track.radius_px
+    t = track.t
+    table = _pose_columns(track, t)
+    table.update({
+        "u_exposure_px": _json_list(mean_c[:, 0]),
+        "v_exposure_px": _json_list(mean_c[:, 1]),
+        "u_coverage_px": _json_list(cov_u),
+        "v_coverage_px": _json_list(cov_v),
+    })
+    table.update(_shape_columns(track, r, coverage, in_view, inside, reach_border, info))
+    if track.second:
+        p2 = track.centre2_px
+        a2, b2 = track.end2_a_px, track.end2_b_px
+        with np.errstate(invalid="ignore"):
+            vis2 = (np.isfinite(p2[:, 0]) & (np.maximum(a2[:, 0], b2[:, 0]) + r > -0.5)
+                    & (np.minimum(a2[:, 0], b2[:, 0]) - r < w - 0.5)
+                    & (np.maximum(a2[:, 1], b2[:, 1]) + r > -0.5)
+                    & (np.minimum(a2[:, 1], b2[:, 1]) - r < h - 0.5))
+        table.update(_second_columns(track, vis2))
+    extra = _distractor_truth(spec, track, info, t) if spec.distractors else None
+    if extra is not None:
+        table.update(extra[0])
+    release = _release_frame_of(t)
+    m = view.mapping
+    out = _header(spec, source, n, w, h)
+    out.update({
         "axes": list(m.axes),
         "world_axes": list(m.world_axes),
         "origin_px": list(m.origin_px),
@@ -120,7 +157,7 @@ def _view_truth(spec, view, track, renderer, source):
                   "radius_px": (track.throw.blade_radius_m + _TOOTH_HALF_WIDTH_M) / m.m_per_px,
                   "rate_rad_s": track.throw.blade_rad_s},
         "per_frame": table,
-    }
+    })
     if extra is not None:
         out["distractors"] = extra[1]
     return out
