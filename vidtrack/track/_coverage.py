@@ -130,7 +130,7 @@ def measure(work, blob, level, *, width=None, length=None, thin=None, separate=T
     if not m00 > 0:
         blob.area = 0.0
         return blob
-    from_moments(blob, c, work.origin)
+    from_moments(blob, c, work.origin, m)
     blob.level = level
     blob.off_axis = share_off_axis(c, m, blob.angle)
     line = strong_line(c)

@@ -30,10 +30,12 @@ def top_third_median(vals):
     return float(np.median(np.partition(vals, vals.size - k)[vals.size - k:]))
 
 
-def from_moments(blob, c, origin):
+def from_moments(blob, c, origin, m=None):
     """``blob`` (in place) with the centroid, area, length, width and angle of the
-    coverage image ``c`` whose top-left pixel is ``origin``; area 0 when it is empty."""
-    m = cv2.moments(c, False)
+    coverage image ``c`` whose top-left pixel is ``origin`` (``m``: its moments, when the
+    caller has them); area 0 when it is empty."""
+    if m is None:
+        m = cv2.moments(c, False)
     m00 = m["m00"]
     if not m00 > 0:
         blob.area = 0.0
