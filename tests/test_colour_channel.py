@@ -4,7 +4,8 @@ The footage is rendered here with exact coverage (``rod_render``): a reddish bal
 ballistic path over a greenish board under mildly uneven light, the ball of the same
 BT.601 luma as the board (0.299 R + 0.587 G + 0.114 B, computed here), about 1 grey level
 of noise per channel. In the luma it is invisible; in its red channel it stands out by
-about 110 levels. The truth (the ball's centre) is never seen by the code under test.
+about 110 levels, and in its chroma (max - min of R, G, B) by about 80. The truth (the
+ball's centre) is never seen by the code under test.
 """
 
 import json
@@ -110,6 +111,25 @@ def test_a_colour_channel_is_that_channel_of_the_bgr_frame(colour, channel, inde
         assert src.to_dict()["channel"] == channel
 
 
+def test_chroma_is_the_largest_minus_the_smallest_channel(colour, tmp_path):
+    from vidtrack.footage import write_cine
+
+    path, frames = colour
+    want = [f.max(axis=2) - f.min(axis=2) for f in frames]
+    with open_source(path, fps=FPS, channel="chroma") as src:
+        assert src.channel == "chroma" and src.dtype == np.uint8 and src.notes == ()
+        np.testing.assert_array_equal(src[7], want[7])
+        assert all(np.array_equal(a, b) for a, b in zip(src, want))
+    # board (90, 150, 90) BGR: 60; the ball (60, 99.8, 200): 140 (both under the light)
+    assert 55 <= np.median(want[0]) <= 65
+    # 12-bit colour keeps its depth
+    deep = [(f.astype(np.uint16) * 16) for f in frames[:3]]
+    cine = write_cine(tmp_path / "deep.cine", deep, fps=FPS, bit_depth=12)
+    with open_source(cine, fps=FPS, channel="chroma") as src:
+        assert src.dtype == np.uint16
+        np.testing.assert_array_equal(src[1], deep[1].max(axis=2) - deep[1].min(axis=2))
+
+
 def test_luma_is_the_default_and_unchanged(colour):
     path, frames = colour
     with open_source(path, fps=FPS) as src, open_source(path, fps=FPS, channel="luma") as lum:
@@ -145,7 +165,7 @@ def test_in_the_luma_the_ball_cannot_be_tracked(colour):
     assert tr.usable.sum() < 0.2 * N, tr.flag_counts()
 
 
-@pytest.mark.parametrize("channel", ["red", "green"])
+@pytest.mark.parametrize("channel", ["red", "green", "chroma"])
 def test_in_a_channel_where_it_differs_it_is_tracked_to_half_a_pixel(colour, channel):
     tr, notes, got = _track(colour[0], channel)
     assert got == channel and notes == ()
@@ -185,7 +205,7 @@ def test_auto_reads_grey_footage_as_luma(grey):
         assert all(np.array_equal(a, b) for a, b in zip(lum, auto))
 
 
-@pytest.mark.parametrize("channel", ["red", "green", "blue"])
+@pytest.mark.parametrize("channel", ["red", "green", "blue", "chroma"])
 def test_a_colour_channel_of_grey_footage_is_refused(grey, tmp_path, channel):
     with pytest.raises(SourceError) as info:
         open_source(grey, fps=FPS, channel=channel)
@@ -205,7 +225,7 @@ def test_a_colour_channel_of_grey_footage_is_refused(grey, tmp_path, channel):
 def test_a_bad_channel_is_refused_when_opening():
     for bad in ("purple", 3, None):
         with pytest.raises(SourceError, match="channel must be one of luma, red, green, "
-                                              "blue, auto"):
+                                              "blue, chroma, auto"):
             open_source("nowhere.avi", channel=bad)
 
 
@@ -226,7 +246,7 @@ def test_a_bad_channel_in_scene_toml_is_one_line(tmp_path, value, shown):
         load_scene(tmp_path)
     assert str(info.value) == (
         f"{tmp_path / 'scene.toml'}: views.front.channel must be one of \"luma\", \"red\", "
-        f"\"green\", \"blue\", \"auto\", got {shown}")
+        f"\"green\", \"blue\", \"chroma\", \"auto\", got {shown}")
 
 
 def test_channel_is_read_written_and_in_the_hash(tmp_path):
@@ -289,4 +309,5 @@ def test_frames_exports_a_channel(colour, tmp_path, vidtrack_cli):
     np.testing.assert_array_equal(got, frames[2][:, :, 2])
     res = vidtrack_cli("frames", path, tmp_path / "bad", "--channel", "purple")
     assert res.returncode == 2 and res.stderr.strip().count("\n") == 0
-    assert "channel must be one of luma, red, green, blue, auto, got 'purple'" in res.stderr
+    assert "channel must be one of luma, red, green, blue, chroma, auto, got 'purple'" in \
+        res.stderr

@@ -43,7 +43,8 @@ def add_arguments(parser):
                              "against it)")
     parser.add_argument("--channel", default="luma", metavar="CHANNEL",
                         help="the grey image written from colour footage: luma (default, "
-                             "BT.601), red, green, blue, or auto (the channel in which "
+                             "BT.601), red, green, blue, chroma (max - min of R, G, B: "
+                             "how far from grey), or auto (the channel in which "
                              "moving things stand out most, noted on stderr)")
     parser.add_argument("--no-time-stamps", action="store_true",
                         help="time a .cine by --fps (or its setup frame rate) instead of its "

@@ -38,7 +38,8 @@ Colour frames are converted to grey with OpenCV's ``cvtColor`` (ITU-R BT.601 lum
 16-bit). Grey frames that a container stores as three equal channels come back
 unchanged. A video may instead be read as its decoder's luma plane (see
 :mod:`vidtrack.footage.video`). With ``channel`` (``scene.toml`` ``views.<v>.channel``)
-a source gives one colour channel instead, or the one chosen by ``"auto"``
+a source gives one colour channel instead, or its chroma (``max(R, G, B) - min(R, G, B)``,
+how far a pixel is from grey, whatever its hue), or the channel chosen by ``"auto"``
 (:mod:`vidtrack.footage.channel`).
 """
 
@@ -50,7 +51,7 @@ import numpy as np
 
 from vidtrack.errors import SourceError
 
-__all__ = ["CHANNEL_INDEX", "FrameSource", "natural_key", "to_grey"]
+__all__ = ["CHANNEL_INDEX", "COLOUR_ONLY", "FrameSource", "natural_key", "to_grey"]
 
 
 def _cv2():
@@ -84,6 +85,8 @@ def natural_key(name):
 
 #: Index of each colour channel in OpenCV's BGR (and BGRA) order.
 CHANNEL_INDEX = {"blue": 0, "green": 1, "red": 2}
+#: The grey images of a colour frame other than its luma.
+COLOUR_ONLY = ("red", "green", "blue", "chroma")
 
 
 def to_grey(image, channel="luma"):
@@ -96,7 +99,9 @@ def to_grey(image, channel="luma"):
         ``(rows, cols, 4)`` as OpenCV returns them.
     channel : str, optional
         ``"luma"`` (default: BT.601 luma of colour, grey returned as it is), or
-        ``"red"``, ``"green"``, ``"blue"``: that channel of a colour image.
+        ``"red"``, ``"green"``, ``"blue"``: that channel of a colour image;
+        ``"chroma"``: ``max(R, G, B) - min(R, G, B)`` of a colour image (0 for grey, the
+        most for a saturated colour of any hue).
 
     Returns
     -------
@@ -110,11 +115,15 @@ def to_grey(image, channel="luma"):
         an image.
     """
     if channel != "luma":
-        if channel not in CHANNEL_INDEX:
-            raise SourceError(f"channel must be luma, red, green or blue, got {channel!r}")
+        if channel not in COLOUR_ONLY:
+            raise SourceError(f"channel must be luma, {', '.join(COLOUR_ONLY)}, got {channel!r}")
         if image.ndim == 3 and image.shape[2] in (3, 4):
+            if channel == "chroma":
+                bgr = image[:, :, :3]
+                return bgr.max(axis=2) - bgr.min(axis=2)
             return image[:, :, CHANNEL_INDEX[channel]].copy()
-        raise SourceError(f"cannot take the {channel} channel of an image of shape "
+        what = "chroma" if channel == "chroma" else f"{channel} channel"
+        raise SourceError(f"cannot take the {what} of an image of shape "
                           f"{image.shape}: it is not colour")
     if image.ndim == 2:
         return image
@@ -202,8 +211,8 @@ class FrameSource:
         Things noticed while opening (e.g. unusable time stamps, the channel
         ``"auto"`` chose and why).
     channel : str
-        The grey image the frames are: ``"luma"``, ``"red"``, ``"green"`` or
-        ``"blue"`` (what ``"auto"`` chose, when it was given).
+        The grey image the frames are: ``"luma"``, ``"red"``, ``"green"``, ``"blue"``
+        or ``"chroma"`` (what ``"auto"`` chose, when it was given).
     channel_scores : dict or None
         With ``"auto"`` on colour footage: each candidate's score (how strongly moving
         things stand out, :func:`vidtrack.footage.channel.settle_channel`).

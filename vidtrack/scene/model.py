@@ -39,7 +39,7 @@ FPS_RANGE = (0.1, 1e7)
 CAMERA_DISTANCE_RANGE_M = (0.01, 1e5)
 #: What a view's ``channel`` may be: the grey image the tracker sees (BT.601 luma, one
 #: colour channel, or ``"auto"``: the one in which moving things stand out most).
-CHANNELS = ("luma", "red", "green", "blue", "auto")
+CHANNELS = ("luma", "red", "green", "blue", "chroma", "auto")
 
 _TOP_KEYS = ("schema", "run", "factors", "physics", "straw", "machine", "world", "views")
 _VIEW_KEYS = ("source", "fps", "axes", "origin_px", "ruler", "m_per_px", "calibration",
@@ -182,8 +182,10 @@ class ViewSpec:
         Frame of this view at which t = 0, or ``"auto"`` (find it).
     channel : str
         The grey image tracked, one of :data:`CHANNELS`: ``"luma"`` (default: BT.601
-        luma of colour footage), ``"red"``, ``"green"``, ``"blue"`` (that channel), or
-        ``"auto"`` (chosen when the footage is opened; see docs/scene.md).
+        luma of colour footage), ``"red"``, ``"green"``, ``"blue"`` (that channel),
+        ``"chroma"`` (``max(R, G, B) - min(R, G, B)``: a coloured object before grey
+        surroundings, whatever its hues), or ``"auto"`` (chosen among luma, red, green
+        and blue when the footage is opened; see docs/scene.md).
     camera_distance_m : float or None
         Distance (m) from the camera's centre to the plane where the scale holds (the
         plane through the world origin parallel to the image: Z = 0 for ``front``,
