@@ -418,7 +418,7 @@ CASES = [
                                         "--every", "-3"), stderr=r"--every must be >= 1"),
     Case("frames-channel-not-a-channel",
          args=("frames", "{repo}/datasets/run42/front.avi", "out", "--channel", "purple"),
-         stderr=r"channel must be one of luma, red, green, blue, auto, got 'purple'"),
+         stderr=r"channel must be one of luma, red, green, blue, chroma, auto, got 'purple'"),
     Case("frames-colour-channel-of-grey-footage",
          args=("frames", "{repo}/datasets/run42/front.avi", "out", "--channel", "red"),
          stderr=r"front\.avi: channel \"red\" takes the red channel of colour footage, but "
@@ -692,7 +692,7 @@ CASES += [
     Case("fit-channel-not-a-channel",
          setup=run42_copy(scene=scene_value("channel", '"purple"')), args=("fit", "run"),
          stderr=r"run/scene\.toml: views\.front\.channel must be one of \"luma\", \"red\", "
-                r"\"green\", \"blue\", \"auto\", got a string 'purple'$"),
+                r"\"green\", \"blue\", \"chroma\", \"auto\", got a string 'purple'$"),
     Case("fit-channel-a-number",
          setup=run42_copy(scene=scene_value("channel", "3", "top")), args=("fit", "run"),
          stderr=r"views\.top\.channel must be one of .*, got an integer 3$"),

@@ -103,7 +103,8 @@ BAD = [
     (lambda d: d["views"]["cam1"].update(channel="red"), "views.cam1.channel",
      "goes with source .*, not points"),
     (lambda d: d["views"]["cam2"].update(channel="purple"), "views.cam2.channel",
-     "must be one of \"luma\", \"red\", \"green\", \"blue\", \"auto\", got a string 'purple'"),
+     "must be one of \"luma\", \"red\", \"green\", \"blue\", \"chroma\", \"auto\", got "
+     "a string 'purple'"),
 ]
 
 
