@@ -24,6 +24,16 @@ def shared_dir():
     return SHARED
 
 
+@pytest.fixture(scope="session")
+def real_footage(shared_dir):
+    """``../shared/data/real``: public clips no one on this project made, with references
+    made by others (skips, saying so, where it is not there)."""
+    folder = shared_dir / "data" / "real"
+    if not folder.is_dir():
+        pytest.skip(f"no real footage at {folder}")
+    return folder
+
+
 def run_vidtrack(*args, cwd=None, timeout=600, env=None):
     """Run ``python -m vidtrack ARGS`` as a subprocess; return the CompletedProcess."""
     full_env = dict(os.environ)

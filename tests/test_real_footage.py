@@ -28,14 +28,6 @@ from vidtrack.footage import open_source
 from vidtrack.track.tracker import track
 
 
-@pytest.fixture(scope="module")
-def real(shared_dir):
-    folder = shared_dir / "data" / "real"
-    if not folder.is_dir():
-        pytest.skip(f"no real footage at {folder}")
-    return folder
-
-
 def _need(*paths):
     for p in paths:
         if not p.is_file():
@@ -49,8 +41,8 @@ def _track(path, fps, **kw):
 
 # --------------------------------------------------------------------- diabolo
 @pytest.fixture(scope="module")
-def diabolo(real):
-    folder = real / "diabolo"
+def diabolo(real_footage):
+    folder = real_footage / "diabolo"
     _need(folder / "diabolo_240fps.mp4", folder / "tracker_points_240fps.csv")
     ref = np.loadtxt(folder / "tracker_points_240fps.csv", delimiter=",", skiprows=1)
     return folder / "diabolo_240fps.mp4", ref
@@ -95,8 +87,8 @@ def _quadratic_g(t, y):
     return -2.0 * np.polyfit(t, y, 2)[0]
 
 
-def test_balltoss_ball_after_the_hand_and_g(real):
-    folder = real / "balltoss"
+def test_balltoss_ball_after_the_hand_and_g(real_footage):
+    folder = real_footage / "balltoss"
     _need(folder / "BallTossOut.mp4", folder / "balltoss_tracker_points.txt")
     ref = np.loadtxt(folder / "balltoss_tracker_points.txt", skiprows=2)   # t, x, y (m)
     g_ref = _quadratic_g(ref[:, 0], ref[:, 2])
@@ -161,8 +153,8 @@ def _linear_drag(t, y, g=9.81):
 
 
 @pytest.fixture(scope="module")
-def bears(real):
-    folder = real / "bear"
+def bears(real_footage):
+    folder = real_footage / "bear"
     out = {}
     for name, csv in (("oso_sin_globo", "trayectoria_sin_globo.csv"),
                       ("oso_globo_grande", "trayectoria_globo_grande.csv")):
@@ -221,12 +213,12 @@ def test_bear_tracked_to_the_ground_as_the_group_tracked_it(bears, name):
         assert measured[0] <= 2 and ok.sum() >= 0.8 * len(v)
 
 
-def test_chroma_follows_the_bear_before_a_grey_wall_closer_to_the_group(real, bears):
+def test_chroma_follows_the_bear_before_a_grey_wall_closer_to_the_group(real_footage, bears):
     """The bear alone is orange and red before a grey concrete wall, and about as bright
     as the wall: the luma sees it in patches (a centroid that moves as they come and
     go); its chroma (max - min of R, G, B) shows it whole. The group tracked it in
     colour: the chroma's track is 0.96 px RMS from theirs, the luma's 2.6 px."""
-    folder = real / "bear"
+    folder = real_footage / "bear"
     with open_source(folder / "oso_sin_globo.mov", fps=60, channel="chroma") as src:
         assert src.channel == "chroma"
         tr = track(src, view="front")
@@ -259,7 +251,7 @@ def test_bear_drag_tells_the_balloon(bears):
 
 
 @pytest.mark.parametrize("name", ["oso_sin_globo", "oso_globo_grande"])
-def test_auto_channel_keeps_the_luma_for_a_bear_of_many_colours(real, name):
+def test_auto_channel_keeps_the_luma_for_a_bear_of_many_colours(real_footage, name):
     """The bears are colour clips of a plush toy of many colours: a single channel
     stands out only a little more than the luma (red 1.16 times, green 1.03), and is no
     clear gain (red keeps 40 of the bear's 59 usable frames against the luma's 49, green
@@ -267,7 +259,7 @@ def test_auto_channel_keeps_the_luma_for_a_bear_of_many_colours(real, name):
     says so with its scores."""
     from vidtrack.footage import open_source
 
-    path = real / "bear" / f"{name}.mov"
+    path = real_footage / "bear" / f"{name}.mov"
     _need(path)
     with open_source(path, fps=60, channel="auto") as src:
         said = [n for n in src.notes if n.startswith("channel auto:")]
@@ -280,8 +272,8 @@ def test_auto_channel_keeps_the_luma_for_a_bear_of_many_colours(real, name):
 
 # --------------------------------------------------------------------- badminton
 @pytest.mark.parametrize("cam", [1, 2])
-def test_badminton_shuttlecock_followed_between_two_hits(real, cam):
-    folder = real / "badminton_2cam"
+def test_badminton_shuttlecock_followed_between_two_hits(real_footage, cam):
+    folder = real_footage / "badminton_2cam"
     _need(folder / f"CameraReader_{cam}.mp4", folder / f"CameraReader_{cam}.csv")
     first, end, at = 732, 872, 802        # one flight: the hits are where it turns back
     lab = pd.read_csv(folder / f"CameraReader_{cam}.csv").set_index("Frame").loc[first:end - 1]

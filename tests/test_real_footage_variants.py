@@ -67,14 +67,6 @@ def _write(src_path, change, out, frames=None):
     return out
 
 
-@pytest.fixture(scope="module")
-def real(shared_dir):
-    folder = shared_dir / "data" / "real"
-    if not folder.is_dir():
-        pytest.skip(f"no real footage at {folder}")
-    return folder
-
-
 def _track(path, fps, target=None, frames=None):
     with open_source(path, fps=fps, frames=frames) as src:
         return track(src, view="front", target=target), src.shape[1]
@@ -99,8 +91,8 @@ def _compare(change, base, width, tr):
 
 # --------------------------------------------------------------------- balltoss
 @pytest.fixture(scope="module")
-def balltoss(real):
-    path = real / "balltoss" / "BallTossOut.mp4"
+def balltoss(real_footage):
+    path = real_footage / "balltoss" / "BallTossOut.mp4"
     if not path.is_file():
         pytest.skip(f"{path} is not there (../shared/data/real changed?)")
     return path, *_track(path, 30)
@@ -149,8 +141,8 @@ def test_balltoss_smaller_dimmer_flatter_or_slower_follows_the_same_ball(balltos
 
 # --------------------------------------------------------------------- diabolo
 @pytest.fixture(scope="module")
-def diabolo(real):
-    folder = real / "diabolo"
+def diabolo(real_footage):
+    folder = real_footage / "diabolo"
     path = folder / "diabolo_240fps.mp4"
     if not path.is_file():
         pytest.skip(f"{path} is not there (../shared/data/real changed?)")
