@@ -38,7 +38,8 @@ FPS_RANGE = (0.1, 1e7)
 #: farther than 100 km from the throw is a typo.
 CAMERA_DISTANCE_RANGE_M = (0.01, 1e5)
 #: What a view's ``channel`` may be: the grey image the tracker sees (BT.601 luma, one
-#: colour channel, or ``"auto"``: the one in which moving things stand out most).
+#: colour channel, the chroma ``max(R, G, B) - min(R, G, B)``, or ``"auto"``: the one of
+#: luma, red, green and blue in which moving things stand out most).
 CHANNELS = ("luma", "red", "green", "blue", "chroma", "auto")
 
 _TOP_KEYS = ("schema", "run", "factors", "physics", "straw", "machine", "world", "views")
