@@ -15,7 +15,9 @@ Skipped, saying why, where ``../shared`` is not beside the checkout.
 
 import cv2
 import numpy as np
+import pandas as pd
 import pytest
+from test_real_footage import _need
 
 from vidtrack.footage import open_source
 from vidtrack.track.tracker import track
@@ -73,9 +75,9 @@ def _track(path, fps, target=None, frames=None):
 
 
 def _compare(change, base, width, tr):
-    """(unflagged in both, median and largest distance in the unchanged clip's pixels of
-    the frames unflagged in both, unflagged here where the unchanged clip measured
-    nothing) against the unchanged clip's track ``base``."""
+    """Against the unchanged clip's track ``base``: (frames unflagged in both, each
+    frame's distance in the unchanged clip's pixels, frames unflagged here where the
+    unchanged clip measured nothing)."""
     step = 2 if change == "every2" else 1
     scale = 0.5 if change == "half" else 1.0
     d0 = base.data.iloc[::step]
@@ -93,8 +95,7 @@ def _compare(change, base, width, tr):
 @pytest.fixture(scope="module")
 def balltoss(real_footage):
     path = real_footage / "balltoss" / "BallTossOut.mp4"
-    if not path.is_file():
-        pytest.skip(f"{path} is not there (../shared/data/real changed?)")
+    _need(path)
     return path, *_track(path, 30)
 
 
@@ -143,10 +144,9 @@ def test_balltoss_smaller_dimmer_flatter_or_slower_follows_the_same_ball(balltos
 @pytest.fixture(scope="module")
 def diabolo(real_footage):
     folder = real_footage / "diabolo"
-    path = folder / "diabolo_240fps.mp4"
-    if not path.is_file():
-        pytest.skip(f"{path} is not there (../shared/data/real changed?)")
-    ref = np.loadtxt(folder / "tracker_points_240fps.csv", delimiter=",", skiprows=1)
+    path, csv = folder / "diabolo_240fps.mp4", folder / "tracker_points_240fps.csv"
+    _need(path, csv)
+    ref = np.loadtxt(csv, delimiter=",", skiprows=1)
     return path, ref, *_track(path, 240)
 
 
@@ -176,21 +176,18 @@ def test_diabolo_smaller_or_flatter_never_the_student(diabolo, change, tmp_path)
 
 
 # --------------------------------------------------------------------- badminton
-@pytest.fixture(scope="module")
-def badminton(real_footage):
-    import pandas as pd
-
-    folder = real_footage / "badminton_2cam"
-    path = folder / "CameraReader_1.mp4"
-    if not path.is_file():
-        pytest.skip(f"{path} is not there (../shared/data/real changed?)")
-    lab = pd.read_csv(folder / "CameraReader_1.csv").set_index("Frame")
-    at = (BAD_AT, (float(lab.loc[BAD_AT, "X"]), float(lab.loc[BAD_AT, "Y"])))
-    return path, at, *_track(path, 119.12, target=at, frames=BAD_FRAMES)
-
-
 #: One flight between two hits, and the frame where the user names the shuttlecock.
 BAD_FRAMES, BAD_AT = (732, 872), 802
+
+
+@pytest.fixture(scope="module")
+def badminton(real_footage):
+    folder = real_footage / "badminton_2cam"
+    path, csv = folder / "CameraReader_1.mp4", folder / "CameraReader_1.csv"
+    _need(path, csv)
+    lab = pd.read_csv(csv).set_index("Frame")
+    at = (BAD_AT, (float(lab.loc[BAD_AT, "X"]), float(lab.loc[BAD_AT, "Y"])))
+    return path, at, *_track(path, 119.12, target=at, frames=BAD_FRAMES)
 
 
 def test_badminton_at_half_the_size_keeps_the_shuttlecock(badminton, tmp_path):
