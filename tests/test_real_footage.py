@@ -12,7 +12,8 @@ What each clip shows (measured with this code; docs/tracker.md keeps the table):
 - balltoss (30 fps): the ball from the frame it leaves the hand, never the hand; g from a
   drag-free fit of the tracked points within 2 % of g from the reference points;
 - bear (60 fps phone video, rotation tag, colour): both drops from release to the
-  ground; a linear-drag fit with g fixed tells the bear from the bear under a balloon;
+  ground, their shadow on the wall below them cut off; a linear-drag fit with g fixed
+  tells the bear from the bear under a balloon;
 - badminton (two 2048 x 1536 cameras at 119 fps, compressed hard, players and a crowd
   moving): one flight between two hits, named by a ``target`` in one frame, followed in
   both cameras; the labels mark the shuttlecock's cork, which leads it, so the centroid
@@ -199,25 +200,31 @@ def test_bear_tracked_to_the_ground_as_the_group_tracked_it(bears, name):
           f"{ok.sum()} unflagged; {rms_px:.2f} px RMS from the group's CSV "
           f"({n} frames, {1.0 / m_per_px:.1f} px/m)")
     assert 190.0 <= 1.0 / m_per_px <= 230.0             # about 210 px/m, as they say
-    # 2.6 px RMS for the bear; 4.6 px for the bear under its balloon, tracked as one
-    # object (their centroid) while the group tracked one of the two as they swing
-    assert rms_px <= 5.0
+    # their shadow on the wall below them, attached all through, is cut off (it pulled
+    # the centroid 13 and 18 px down)
+    shadow = [x for x in tr.notes if x.startswith("shadow:")]
+    assert len(shadow) == 1, tr.notes
+    # 2.3 px RMS for the bear (2.6 px with its shadow); 5.7 px for the bear under its
+    # balloon, tracked as one object (the pair's centre, above the bear's) while the
+    # group tracked the bear alone as the pair swings (4.6 px with the shadow, which
+    # pulled the centroid down towards the bear)
+    assert rms_px <= (3.0 if name == "oso_sin_globo" else 6.5)
     # to the ground: the last measured frame within 2 of the video's last
     measured = np.flatnonzero(np.isfinite(v))
     assert measured[-1] >= len(v) - 3
-    # from the release: the bear from frame 0 (49 of 59 usable); the bear under its
+    # from the release: the bear from frame 0 (56 of 59 usable); the bear under its
     # balloon, one compound object, from frame 0 too (60 of 70 usable; frames 15-24
     # flagged merged)
     assert ok.sum() >= 0.5 * len(v)
     if name == "oso_sin_globo":
-        assert measured[0] <= 2 and ok.sum() >= 0.8 * len(v)
+        assert measured[0] <= 2 and ok.sum() >= 0.9 * len(v)
 
 
 def test_chroma_follows_the_bear_before_a_grey_wall_closer_to_the_group(real_footage, bears):
     """The bear alone is orange and red before a grey concrete wall, and about as bright
     as the wall: the luma sees it in patches (a centroid that moves as they come and
     go); its chroma (max - min of R, G, B) shows it whole. The group tracked it in
-    colour: the chroma's track is 0.96 px RMS from theirs, the luma's 2.6 px."""
+    colour: the chroma's track is 0.96 px RMS from theirs, the luma's 2.3 px."""
     folder = real_footage / "bear"
     with open_source(folder / "oso_sin_globo.mov", fps=60, channel="chroma") as src:
         assert src.channel == "chroma"
@@ -254,8 +261,8 @@ def test_bear_drag_tells_the_balloon(bears):
 def test_auto_channel_keeps_the_luma_for_a_bear_of_many_colours(real_footage, name):
     """The bears are colour clips of a plush toy of many colours: a single channel
     stands out only a little more than the luma (red 1.16 times, green 1.03), and is no
-    clear gain (red keeps 40 of the bear's 59 usable frames against the luma's 49, green
-    63 of 70 against 60 under the balloon), so ``channel = "auto"`` keeps the luma, and
+    clear gain (red keeps 40 of the bear's 59 usable frames against the luma's 56, green
+    64 of 70 against 60 under the balloon), so ``channel = "auto"`` keeps the luma, and
     says so with its scores."""
     from vidtrack.footage import open_source
 

@@ -29,9 +29,9 @@ blue in which moving things stand out most from the static background, by
 names for a coloured object before grey surroundings; it is not among the candidates
 because what stands out more is not always followed better: on the bear drop under a
 yellow balloon the pair shows whole in the chroma, one long object that the tracker
-takes for a rod and loses for 63 of 70 frames (the luma keeps 60 usable), while on the
+takes for a rod and loses for 64 of 70 frames (the luma keeps 60 usable), while on the
 bear alone, before a grey wall, the chroma follows it 0.96 px RMS from the group's own
-track against 2.6 px in the luma (docs/tracker.md).
+track against 2.3 px in the luma (docs/tracker.md).
 
 Grey footage (one channel, or three equal channels as some containers store grey) has
 no colour: ``"auto"`` reads it as luma, a colour channel is refused with a

@@ -12,8 +12,8 @@ import cv2
 import numpy as np
 
 from vidtrack.track._moments import axis, detections_off_axis, from_moments, top_third_median
-from vidtrack.track._segment import K3, K5
-from vidtrack.track._silhouette import fill_holes, measure_silhouette
+from vidtrack.track._segment import K3, K5, fill_holes
+from vidtrack.track._silhouette import measure_silhouette
 
 #: A rod of both polarities: its core is where its main polarity shows at least this
 #: share of its level (a rider of half the contrast never does), and its band reaches
@@ -22,7 +22,7 @@ CORE = 0.75
 CORE_EDGE_PX = 1.5
 
 
-def measure_mixed(work, blob, *, rod=None, separate=True):
+def measure_mixed(work, blob, *, rod=None, separate=True, shadow=None):
     """Centroid etc. of an object of both polarities (in place): a rod (a dark straw
     with a highlight along it) by its body, anything else by :func:`measure_silhouette`.
     ``rod``: whether it is one (as its clean frames were: a straw seen end on still is);
@@ -31,7 +31,8 @@ def measure_mixed(work, blob, *, rod=None, separate=True):
     across it, closed into its body, is left out. ``separate`` False: the rod is
     measured whole, its band's measurement kept in ``blob.separated`` (the blobs a
     straw is chosen among are measured whole: cutting what its blade holds in some
-    frames and not in others would break its path).
+    frames and not in others would break its path; any other object's shadow is then
+    measured aside, :func:`measure_silhouette`).
 
     The body is what differs from the background by at least 0.15 of the object's
     contrast (the 90th percentile of ``|f - b|``; what the closing adds and
@@ -57,8 +58,10 @@ def measure_mixed(work, blob, *, rod=None, separate=True):
     faint = (sel & (ad > 0.3 * top)).view(np.uint8)
     body = fill_holes(cv2.morphologyEx(faint, cv2.MORPH_CLOSE, K3))
     body &= ~work.others
+    if shadow is None:
+        shadow = "cut" if separate else "aside"
     if not body.any():
-        return measure_silhouette(work, blob)
+        return measure_silhouette(work, blob, shadow=shadow)
     band = _core_band(d, sel, strong) if rod is not False else None
     if rod is None:
         # (a rod with a fainter rod across it, closed into its body, is a rod: its body
@@ -67,7 +70,7 @@ def measure_mixed(work, blob, *, rod=None, separate=True):
                               .astype(np.float32), (0, 0))
         rod = probe.area > 0 and probe.length >= 3.0 * max(probe.width, 1.0)
     if not rod:
-        return measure_silhouette(work, blob)
+        return measure_silhouette(work, blob, shadow=shadow)
     if band is not None and not separate:
         sep = _rod_body(work, copy.copy(blob), d, ad, top, sel, strong, body, band)
         if sep.area > 0:

@@ -45,6 +45,13 @@ _SPECK_STEP = 1.25
 _SPECK_MAX = 8.0
 #: Frames between two counts of the specks.
 _SPECK_EVERY = 16
+#: An object measured by its silhouette has a shadow attached (:meth:`Pass.attached_shadow`)
+#: when a soft, weak, darker part offset from the rest is found in at least this share of
+#: its clean frames, on the same side (the mean of the unit vectors towards it at least
+#: :data:`_SHADOW_ALIGN` long): a lamp casts it the same way all through a throw, where
+#: an object's own faint parts come and go as it turns.
+_SHADOW_SHARE = 0.6
+_SHADOW_ALIGN = 0.8
 
 _TOP_RELEASE_NOTE = ("not looked for in the top view: it sees the rotor's plane edge-on, "
                      "where the ride on the blade barely differs from free flight; the "
@@ -146,8 +153,9 @@ class Pass:
 
     def __init__(self, source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
                  max_gap=5, blade_region=None, centre_line_px=None, warmup_frames=None,
-                 quiet=True, cancel=None, target=None):
+                 quiet=True, cancel=None, target=None, shadow="aside"):
         self.source, self.view, self.quiet, self.cancel = source, view, quiet, cancel
+        self.shadow = shadow     # a silhouette's attached shadow: "aside" or "cut"
         self.target, self.k_sigma = target, k_sigma
         self.t_idx = None        # the target's source index (:meth:`run`)
         self.name = name = _name(view, source)
@@ -206,6 +214,7 @@ class Pass:
         self.clean = np.zeros(n, bool)
         self.seeded = np.zeros(n, bool)  # stored from an acquisition's tracklet, not followed
         self.solid = np.zeros(n, bool)   # measured as an object of any shape (not a rod)
+        self.shade = np.full((n, 2), np.nan)  # where its attached shadow pulls it (px)
 
         self.min_area = max(1, int(min_area_px))
         self.acq = Acquirer(confirm=3, max_step=0.25 * max(rows, cols), min_motion=0.3,
@@ -224,6 +233,8 @@ class Pass:
         flags."""
         self.u[i], self.v[i], self.area[i] = blob.u, blob.v, blob.area
         self.angle[i], self.length[i] = blob.angle, blob.length
+        if blob.shadowless is not None:
+            self.shade[i] = (blob.u - blob.shadowless[0], blob.v - blob.shadowless[1])
         fl = extra
         if blob.touches_border:
             fl |= BORDER
@@ -277,7 +288,7 @@ class Pass:
                 within = (got[0], got[3])
         return search_blobs(self.seg, i, frame, gain, shape=self.shape,
                             min_area=self.min_area, blade=self.blade, near=near,
-                            within=within)
+                            within=within, shadow=self.shadow)
 
     def count_specks(self, i, frame):
         """Raise the threshold while frame ``i`` holds more specks than allowed."""
@@ -320,6 +331,9 @@ class Pass:
         for k, b in enumerate(tr.blobs):
             if f.compact and b.silhouette is not None:
                 b.u, b.v, b.area, b.angle, b.length, b.width = b.silhouette
+            if f.compact and b.shadowless is not None and self.shadow == "cut":
+                # (without the shadow attached to it, as followed from here)
+                b.u, b.v, b.area, b.angle, b.length, b.width = b.shadowless
             if (not f.compact or f.rod) and b.separated is not None:
                 # a rod of both polarities: on its core's band, as followed from here
                 b.u, b.v, b.area, b.angle, b.length, b.width, b.off_axis = b.separated
@@ -529,6 +543,23 @@ class Pass:
             if k0 is not None and (self.flags[first_fol.start:k0] & MERGED).any():
                 self.follow_back(k0, back, first_fol, until_touch=True)
         return self
+
+    def attached_shadow(self):
+        """``(frames, clean frames, (du, dv))`` when a shadow is attached to the object
+        all through (see :data:`_SHADOW_SHARE`; ``(du, dv)``: the mean pull of it on the
+        whole's centroid, px), else None."""
+        ok = self.clean & np.isfinite(self.u)
+        n_ok = int(np.count_nonzero(ok))
+        has = ok & np.isfinite(self.shade[:, 0])
+        n_has = int(np.count_nonzero(has))
+        if n_ok < 5 or n_has < _SHADOW_SHARE * n_ok:
+            return None
+        vec = self.shade[has]
+        norm = np.hypot(vec[:, 0], vec[:, 1])
+        unit = vec[norm > 0] / norm[norm > 0, None]
+        if unit.shape[0] < n_has or np.hypot(*unit.mean(axis=0)) < _SHADOW_ALIGN:
+            return None
+        return n_has, n_ok, tuple(vec.mean(axis=0))
 
     def parts(self):
         """The refined rows and the track's fields

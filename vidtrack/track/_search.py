@@ -24,14 +24,15 @@ SEARCH_PARTS = 24
 
 
 def search_blobs(seg, i, frame, gain, *, shape, min_area, blade=None, near=None,
-                 within=None):
+                 within=None, shadow="aside"):
     """The moving blobs of frame ``i``, measured (each polarity, and the wholes of both).
 
     ``near``: ``((u, v), reach)`` of the object named or just taken, looked for first
     however many larger things move elsewhere (boxes are taken largest first);
     ``within``: ``((u, v), gate)`` where a straw that was followed and lost can be, the
     only place it is looked for; ``blade``: a boolean mask of the frame, a blob wholly
-    inside it is not looked at; ``shape``: the frame's (rows, cols).
+    inside it is not looked at; ``shape``: the frame's (rows, cols); ``shadow``: how a
+    silhouette's attached shadow is measured (:func:`measure_silhouette`).
     """
     boxes = seg.coarse(frame, gain)
     if not boxes:
@@ -80,7 +81,7 @@ def search_blobs(seg, i, frame, gain, *, shape, min_area, blade=None, near=None,
                 b.edge_w_alone = edge_stats(work, alone=True)[1]
                 b.merged = other_behind(work, lv, width=None, min_area=min_area)
                 b.core, _, b.uniform = trim_attached(work, reach_px=None)
-                sil = measure_silhouette(work, copy.copy(b))
+                sil = measure_silhouette(work, copy.copy(b), shadow=shadow)
                 measure(work, b, lv, separate=False)
                 if not b.area > 0:
                     continue

@@ -49,6 +49,19 @@ _GAIN_TOL = 0.01
 SPECK_PX = 4
 
 
+def fill_holes(mask):
+    """``mask`` (uint8 0/1 or 0/255) with the holes inside its components filled (bool)."""
+    m = (mask > 0).astype(np.uint8)
+    rows, cols = m.shape
+    pad = np.zeros((rows + 2, cols + 2), np.uint8)
+    pad[1:-1, 1:-1] = m
+    flood = pad.copy()
+    ff = np.zeros((rows + 4, cols + 4), np.uint8)
+    cv2.floodFill(flood, ff, (0, 0), 1)
+    return (pad[1:-1, 1:-1] > 0) | (flood[1:-1, 1:-1] == 0)
+
+
+
 @dataclass
 class Blob:
     """One connected component of a region of interest, measured.
@@ -86,6 +99,8 @@ class Blob:
     separated: tuple = None   # (u, v, area, angle, length, width, off_axis) on its core's
     #                           band, of a rod of both polarities measured whole
     banded: bool = False      # a rod of both polarities measured on its core's band
+    shadowless: tuple = None  # (u, v, area, angle, length, width) without the shadow
+    #                           attached to it, of an object measured whole
     uniform: float = 0.0      # the core's share of the region it closes (1: one level)
 
 

@@ -5,25 +5,15 @@ surroundings (what is attached beyond, a shadow, cut off).
 Internal to the tracker (:mod:`vidtrack.track._step`, :mod:`vidtrack.track._search`).
 """
 
+import copy
 import math
 
 import cv2
 import numpy as np
 
 from vidtrack.track._moments import from_moments
-from vidtrack.track._segment import K3, K5, READABLE
-
-
-def fill_holes(mask):
-    """``mask`` (uint8 0/1 or 0/255) with the holes inside its components filled (bool)."""
-    m = (mask > 0).astype(np.uint8)
-    rows, cols = m.shape
-    pad = np.zeros((rows + 2, cols + 2), np.uint8)
-    pad[1:-1, 1:-1] = m
-    flood = pad.copy()
-    ff = np.zeros((rows + 4, cols + 4), np.uint8)
-    cv2.floodFill(flood, ff, (0, 0), 1)
-    return (pad[1:-1, 1:-1] > 0) | (flood[1:-1, 1:-1] == 0)
+from vidtrack.track._segment import K3, K5, READABLE, fill_holes
+from vidtrack.track._shadow import attached_shadow
 
 
 def trim_attached(work, *, reach_px, along=(0.0, 0.0)):
@@ -156,7 +146,7 @@ def measure_solid(work, blob):
     return from_moments(blob, cov, work.origin)
 
 
-def measure_silhouette(work, blob):
+def measure_silhouette(work, blob, *, shadow="cut"):
     """Centroid, area, orientation and size of an object of any grey levels (in place).
 
     For an object that is brighter than the background in some parts and darker in
@@ -167,20 +157,44 @@ def measure_silhouette(work, blob):
     is its ``|f - b|`` against the largest ``|f - b|`` of the object's interior within
     2 px (an edge pixel half covered by the object shows half of the nearby interior's
     contrast), clipped to [0, 1]. Then moments as in :func:`measure`.
+
+    Its shadow (:func:`~vidtrack.track._shadow.attached_shadow`) is not of it.
+    ``shadow``: ``"cut"``, measured without it; ``"aside"``, measured whole and, where
+    a shadow is attached, without it too, kept in ``blob.shadowless`` (the first pass
+    over a view measures objects whole, and takes a shadow for one only when it is
+    attached all through: :meth:`vidtrack.track._pass.Pass.attached_shadow`).
     """
-    sel = work.sel
-    if not sel.any():
+    if not work.sel.any():
         blob.area = 0.0
         return blob
+    ad = np.abs(work.d)
+    shade = attached_shadow(work, ad)
+    if shade is None:
+        return _silhouette(work, blob, work.sel, ad)
+    sel = (work.sel.view(bool) & ~shade).view(np.uint8)
+    trimmed = shade if work.trimmed is None else (work.trimmed | shade)
+    if shadow == "aside":
+        alone = _silhouette(work, copy.copy(blob), sel, ad, trimmed=trimmed)
+        if alone.area > 0:
+            blob.shadowless = (alone.u, alone.v, alone.area, alone.angle, alone.length,
+                               alone.width)
+        return _silhouette(work, blob, work.sel, ad)
+    work.trimmed = trimmed
+    return _silhouette(work, blob, sel, ad)
+
+
+def _silhouette(work, blob, sel, ad, *, trimmed=None):
+    """:func:`measure_silhouette` of the detections ``sel`` (``ad = |f - b|``); the edge
+    is not read over ``trimmed`` (default ``work.trimmed``)."""
+    trimmed = work.trimmed if trimmed is None else trimmed
     filled = fill_holes(sel)
     fu8 = filled.view(np.uint8)
     inner = cv2.erode(fu8, K3).view(bool)
-    ad = np.abs(work.d)
     ref = cv2.dilate(np.where(inner, ad, np.float32(0.0)), K5)
     ref = np.maximum(ref, work.t)
     edge = (cv2.dilate(fu8, K3).view(bool) & ~inner) & ~work.others
-    if work.trimmed is not None:
-        edge &= ~work.trimmed
+    if trimmed is not None:
+        edge &= ~trimmed
     c = np.zeros_like(ad)
     c[edge] = np.minimum(ad[edge] / ref[edge], 1.0)
     c[inner] = 1.0

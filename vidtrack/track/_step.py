@@ -175,7 +175,7 @@ class _Step:
             # an object of both polarities: its silhouette (the other polarity is its
             # own, not something behind it)
             work = reg.work(group, np.nan, margin=work_margin(None, None, b.bbox))
-            measure_mixed(work, b, rod=f.rod)
+            measure_mixed(work, b, rod=f.rod, shadow=ps.shadow)
         elif not f.compact:
             lv = level if level is not None else read_level(reg, b)
             work = reg.work(group, lv, margin=work_margin(ref_w, ref_len if known else None,
@@ -245,9 +245,9 @@ class _Step:
                 if trim:
                     measure_solid(work, b)
                 else:
-                    measure_silhouette(work, b)
+                    measure_silhouette(work, b, shadow=ps.shadow)
             else:
-                measure_silhouette(work, b)
+                measure_silhouette(work, b, shadow=ps.shadow)
         if not b.area > 0:
             return False
         b.mask_area = mask_area

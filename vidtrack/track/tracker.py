@@ -35,7 +35,9 @@ How it works (details in ``docs/tracker.md``):
    (:mod:`vidtrack.track._mixed`); an object of one grey level by its fully covered core
    and the ring round it read against its surroundings (what is attached beyond, a
    shadow, cut off); any other object by its silhouette, holes filled
-   (:mod:`vidtrack.track._silhouette`).
+   (:mod:`vidtrack.track._silhouette`), without its shadow where one is attached to it
+   on the same side all through (:mod:`vidtrack.track._shadow`: found in the first
+   pass, cut off in a second).
    A frame unlike the object's clean frames (grown, shrunk at a stroke, a rod's shape
    broken by something across it) is flagged, not measured as the object.
 5. **Afterwards** (:mod:`vidtrack.track._refine`): sizes off the clean frames round them
@@ -266,8 +268,10 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
 
     Notes
     -----
-    One pass over the frames; memory is the background, the warm-up buffer and a few
-    numbers per frame, whatever the footage's length.
+    One pass over the frames (a second, with the first's background, where an object
+    measured by its silhouette has its shadow attached all through: it is then measured
+    without it); memory is the background, the warm-up buffer and a few numbers per
+    frame, whatever the footage's length.
     """
     tr = Track.from_parts(track_parts(
         source, background=background, view=view, k_sigma=k_sigma, min_area_px=min_area_px,
@@ -292,7 +296,18 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
     """:func:`track`'s work, returning the :class:`Track`'s fields as a dict, its rows as
     a dict of numpy arrays (``columns``): a worker process need not load pandas
     (:meth:`Track.from_parts` builds the Track)."""
-    return Pass(source, background=background, view=view, k_sigma=k_sigma,
-                min_area_px=min_area_px, max_gap=max_gap, blade_region=blade_region,
-                centre_line_px=centre_line_px, warmup_frames=warmup_frames, quiet=quiet,
-                cancel=cancel, target=target).run().parts()
+    kw = dict(view=view, k_sigma=k_sigma, min_area_px=min_area_px, max_gap=max_gap,
+              blade_region=blade_region, centre_line_px=centre_line_px,
+              warmup_frames=warmup_frames, quiet=quiet, cancel=cancel, target=target)
+    ps = Pass(source, background=background, **kw).run()
+    shadow = ps.attached_shadow()
+    if shadow is not None:
+        # a shadow attached to it all through: measured again, without it
+        n_has, n_ok, (du, dv) = shadow
+        again = Pass(source, background=ps.background, shadow="cut", **kw).run()
+        again.notes[:0] = [note for note in ps.notes if note.startswith("background")] + [
+            f"shadow: a soft darker part attached on the same side in {n_has} of {n_ok} "
+            f"clean frames (pulling the centroid by ({du:+.1f}, {dv:+.1f}) px): a second "
+            f"pass measured the object without it"]
+        ps = again
+    return ps.parts()
