@@ -118,6 +118,27 @@ def test_a_shadow_attached_to_a_textured_toy_is_cut_off(tmp_path, darkness, blur
     assert err[ok].max() <= 2.0, np.round(err[ok].max(), 2)
 
 
+def test_a_second_pass_that_fails_leaves_the_first_passs_track(tmp_path, monkeypatch):
+    """Where the second pass (without the shadow) cannot follow the object, the track is
+    the first pass's, measured with the shadow, and its notes say so."""
+    from vidtrack.track import _pass
+
+    run = _pass.Pass.run
+
+    def run_or_fail(self):
+        if self.shadow == "cut":
+            raise TrackError("view front: lost without its shadow")
+        return run(self)
+
+    monkeypatch.setattr(_pass.Pass, "run", run_or_fail)
+    frames, path = _toy(np.random.default_rng(3), 70, darkness=0.25, blur_px=3.0)
+    tr = _track(tmp_path, frames)
+    said = [x for x in tr.notes if x.startswith("shadow:")]
+    assert len(said) == 1 and "measured with it" in said[0] and "lost without" in said[0]
+    err = _errors(tr, path)
+    assert np.median(err[tr.usable]) > 5.0         # the shadow's pull, as before the cut
+
+
 def test_a_textured_toy_without_a_shadow_is_measured_whole(tmp_path):
     n = 70
     frames, path = _toy(np.random.default_rng(3), n, darkness=0.0, blur_px=0.0)

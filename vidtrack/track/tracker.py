@@ -77,6 +77,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from vidtrack.errors import TrackError
 from vidtrack.track._flags import (APPEARANCE, BLADE, BORDER, EXCLUDED, FLAGS, LOST, MERGED,
                                    OUTLIER, PRE_RELEASE, PREDICTED)
 from vidtrack.track._pass import Cancelled, Pass
@@ -304,10 +305,16 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
     if shadow is not None:
         # a shadow attached to it all through: measured again, without it
         n_has, n_ok, (du, dv) = shadow
-        again = Pass(source, background=ps.background, shadow="cut", **kw).run()
-        again.notes[:0] = [note for note in ps.notes if note.startswith("background")] + [
-            f"shadow: a soft darker part attached on the same side in {n_has} of {n_ok} "
-            f"clean frames (pulling the centroid by ({du:+.1f}, {dv:+.1f}) px): a second "
-            f"pass measured the object without it"]
-        ps = again
+        said = (f"shadow: a soft darker part attached on the same side in {n_has} of {n_ok} "
+                f"clean frames (pulling the centroid by ({du:+.1f}, {dv:+.1f}) px)")
+        try:
+            again = Pass(source, background=ps.background, shadow="cut", **kw).run()
+        except TrackError as err:
+            # (measured whole, as the first pass did, rather than not at all)
+            ps.notes.append(f"{said}: measured with it, the second pass without it "
+                            f"failing ({err})")
+        else:
+            again.notes[:0] = [note for note in ps.notes if note.startswith("background")]
+            again.notes.append(f"{said}: a second pass measured the object without it")
+            ps = again
     return ps.parts()
