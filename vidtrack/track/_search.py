@@ -81,7 +81,9 @@ def search_blobs(seg, i, frame, gain, *, shape, min_area, blade=None, near=None,
                 b.edge_w_alone = edge_stats(work, alone=True)[1]
                 b.merged = other_behind(work, lv, width=None, min_area=min_area)
                 b.core, _, b.uniform = trim_attached(work, reach_px=None)
-                sil = measure_silhouette(work, copy.copy(b), shadow=shadow)
+                # (a copy: its measurement without a shadow, aside, would not be kept)
+                sil = measure_silhouette(work, copy.copy(b),
+                                         shadow="cut" if shadow == "cut" else None)
                 measure(work, b, lv, separate=False)
                 if not b.area > 0:
                     continue

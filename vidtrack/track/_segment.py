@@ -61,7 +61,6 @@ def fill_holes(mask):
     return (pad[1:-1, 1:-1] > 0) | (flood[1:-1, 1:-1] == 0)
 
 
-
 @dataclass
 class Blob:
     """One connected component of a region of interest, measured.

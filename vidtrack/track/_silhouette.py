@@ -160,7 +160,8 @@ def measure_silhouette(work, blob, *, shadow="cut"):
 
     Its shadow (:func:`~vidtrack.track._shadow.attached_shadow`) is not of it.
     ``shadow``: ``"cut"``, measured without it; ``"aside"``, measured whole and, where
-    a shadow is attached, without it too, kept in ``blob.shadowless`` (the first pass
+    a shadow is attached, without it too, kept in ``blob.shadowless``; None, measured
+    whole without looking for one (the first pass
     over a view measures objects whole, and takes a shadow for one only when it is
     attached all through: :meth:`vidtrack.track._pass.Pass.attached_shadow`).
     """
@@ -168,7 +169,7 @@ def measure_silhouette(work, blob, *, shadow="cut"):
         blob.area = 0.0
         return blob
     ad = np.abs(work.d)
-    shade = attached_shadow(work, ad)
+    shade = attached_shadow(work, ad) if shadow is not None else None
     if shade is None:
         return _silhouette(work, blob, work.sel, ad)
     sel = (work.sel.view(bool) & ~shade).view(np.uint8)
