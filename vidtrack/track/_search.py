@@ -13,6 +13,7 @@ from vidtrack.track._rods import rodlike_run
 from vidtrack.track._coverage import measure
 from vidtrack.track._mixed import measure_mixed
 from vidtrack.track._segment import edge_stats, read_level, work_margin
+from vidtrack.track._shadow import attached_shadow
 from vidtrack.track._silhouette import measure_silhouette, trim_attached
 from vidtrack.track._select import on_body
 from vidtrack.track._touch import edge_width, other_behind
@@ -122,17 +123,23 @@ def _wholes(seg, i, frame, r, gain, parts, *, shape, min_area):
         ox0, oy0, ox1, oy1 = outer.bbox
         enclosed = all((ox0 <= q.bbox[0] and oy0 <= q.bbox[1] and q.bbox[2] <= ox1
                         and q.bbox[3] <= oy1) or on_body(q, outer) for q in inside[small])
-        # (a rod riding a blade of the other polarity is its own object; a
-        # patch of another shape is a part, up to a tenth of the whole)
-        rods = any(rodlike_run([q]) for q in inside[small])
-        if not enclosed and area_of[big] > (3.0 if rods else 10.0) * area_of[small]:
-            continue
-        # a shadow beside a bright object is not part of it: blurred edges
-        wb, wd = edge_width(inside[1]), edge_width(inside[-1])
-        if (not enclosed and np.isfinite(wb) and np.isfinite(wd)
-                and (wd >= 1.6 * wb or wb >= 1.6 * wd)):
+        # (a rod riding a blade of the other polarity is its own object; patches
+        # of other shapes (a texture's, of which some may be long) are parts, up to
+        # a tenth of the whole)
+        if not enclosed and area_of[big] > (3.0 if _rods(inside[small]) else 10.0) \
+                * area_of[small]:
             continue
         work = reg.work([b.label], np.nan, margin=work_margin(None, None, b.bbox))
+        # a shadow beside an object is not part of it: its edges are blurred (unless it
+        # is attached to an object of both polarities, which still is one without it);
+        # beside a rod, a part of the other polarity whose edges are not as sharp as the
+        # rod's is something else (a blade, its shadow), where a texture's patches
+        # pass smoothly through the wall's grey level from one polarity to the other
+        wb, wd = edge_width(inside[1]), edge_width(inside[-1])
+        unlike = wd >= 1.6 * wb or (_rods(inside[big]) and wb >= 1.6 * wd)
+        if (not enclosed and np.isfinite(wb) and np.isfinite(wd) and unlike
+                and not _both_without_shadow(work, min_area)):
+            continue
         b.contrast, b.edge_w = edge_stats(work)
         b.edge_w_alone = b.edge_w
         measure_mixed(work, b, separate=False)
@@ -142,3 +149,23 @@ def _wholes(seg, i, frame, r, gain, parts, *, shape, min_area):
         b.index = i
         found.append(b)
     return found
+
+
+def _rods(parts):
+    """Whether rods (:func:`rodlike_run`) hold at least two thirds of the parts' area."""
+    return sum(q.mask_area for q in parts if rodlike_run([q])) \
+        >= 2.0 / 3.0 * sum(q.mask_area for q in parts)
+
+
+def _both_without_shadow(work, min_area):
+    """Whether the detections of ``work`` are an object of both polarities with a shadow
+    attached (:func:`attached_shadow`): without it, each polarity still holds at least
+    ``min_area`` pixels and a tenth of the rest (a bright ball beside its shadow is
+    bright alone)."""
+    shade = attached_shadow(work, np.abs(work.d))
+    if shade is None:
+        return False
+    rest = work.sel.view(bool) & ~shade
+    least = max(min_area, 0.1 * np.count_nonzero(rest))
+    return bool(np.count_nonzero(rest & (work.d > 0)) >= least
+                and np.count_nonzero(rest & (work.d < 0)) >= least)
