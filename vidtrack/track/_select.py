@@ -168,7 +168,7 @@ class Tracklet:
         if len(self.points) < confirm:
             return False
         pts = np.array(self.points[-confirm:])
-        if np.any(np.diff(pts[:, 0]) > 1.5):
+        if np.any(np.diff(pts[:, 0]) > 2.5):
             return False
         step = np.hypot(*(pts[-1, 1:] - pts[0, 1:])) / max(pts[-1, 0] - pts[0, 0], 1e-9)
         if step < min_motion:
@@ -243,15 +243,17 @@ def line_distance(u, v, line):
 
 
 def _co_moving(a, b):
-    """Two tracklets moving together, side by side, over their common recent frames."""
-    n = min(len(a.points), len(b.points), 6)
-    if n < 3:
+    """Two tracklets moving together, side by side, over their last (up to 6) common
+    frames (one of them may have missed one)."""
+    pa = {round(p[0], 3): p for p in a.points[-8:]}
+    common = [k for k in (round(p[0], 3) for p in b.points[-8:]) if k in pa][-6:]
+    if len(common) < 3:
         return False
-    ta = np.array(a.points[-n:])
-    tb = np.array(b.points[-n:])
-    if not np.allclose(ta[:, 0], tb[:, 0]):
-        return False
-    va, vb = a.velocity(n), b.velocity(n)
+    pb = {round(p[0], 3): p for p in b.points[-8:]}
+    ta = np.array([pa[k] for k in common])
+    tb = np.array([pb[k] for k in common])
+    dt = max(ta[-1, 0] - ta[0, 0], 1e-9)
+    va, vb = (ta[-1, 1:] - ta[0, 1:]) / dt, (tb[-1, 1:] - tb[0, 1:]) / dt
     speed = max(float(np.hypot(*va)), float(np.hypot(*vb)), 1e-9)
     if np.hypot(*(va - vb)) > 0.3 * speed + 1.0:
         return False
@@ -445,7 +447,7 @@ class Acquirer:
         self.waited = 0
 
     def _associate(self, t, blobs):
-        live = [tr for tr in self.tracklets if t - tr.last_t <= 1.5]
+        live = [tr for tr in self.tracklets if t - tr.last_t <= 2.5]
         if not live or not blobs:
             return live, set(), set()
         pu = np.array([b.u for b in blobs])
@@ -495,10 +497,15 @@ class Acquirer:
         live, taken_tr, used = self._associate(t, blobs)
         fresh = [Tracklet(t, b) for j, b in enumerate(blobs) if j not in used]
         kept = [tr for i, tr in enumerate(live) if i in taken_tr]
-        self.tracklets = kept + fresh
+        # (one not seen in this frame only is kept: a measurement can fail once)
+        missed = [tr for i, tr in enumerate(live) if i not in taken_tr and t - tr.last_t <= 1.5]
+        self.tracklets = kept + missed + fresh
         self.ambiguous = []
         ready = [tr for tr in kept if tr.steady(self.confirm, min_motion=self.min_motion)
                  and (accept is None or accept(tr))]
+        # a part of a whole missed in this frame only does not take its place
+        wholes = ready + [tr for tr in missed if tr.steady(self.confirm,
+                                                           min_motion=self.min_motion)]
         if not ready:
             return None
         # a few noise pixels by the rotor can drift steadily for 3 frames: while a
@@ -515,7 +522,7 @@ class Acquirer:
                 and ready[0].area_ratio() <= 1.5 and self._alone(ready[0], blobs)):
             # the one thing moving, keeping its size (a hand throwing changes shape)
             return ready[0]
-        flying = [tr for tr in ready if tr.flying() and not self._part(tr, ready)]
+        flying = [tr for tr in ready if tr.flying() and not self._part(tr, wholes)]
         # the shadow or reflection of a steady candidate beside it is not taken, even
         # when its path is the smoother (the object itself still rides a blade)
         flying = [tr for tr in flying

@@ -381,10 +381,11 @@ class _Step:
         """(region, blob) of the whole when what touches the object (``b``) in the other
         polarity is its own other half, else None.
 
-        Its own when the whole (both polarities) keeps the object's size (mask area 0.6
-        to 1.6 times its clean frames'), the other polarity's part is no larger than the
-        object's clean size, and its edges are as sharp (a shadow's are blurred). A
-        straw riding a blade, or crossing one, is dwarfed by the union.
+        Its own when the whole (both polarities) is about the object's size (mask area
+        0.6 to 2.5 times its clean frames': a texture's dark half may be a third of the
+        whole), the other polarity's part is no larger than the object's clean size,
+        and its edges are as sharp (a shadow's are blurred). A straw riding a blade, or
+        crossing one, is dwarfed by the union.
         """
         ps, frame, roi, gain, f = self.ps, self.frame, self.roi, self.gain, self.f
         seg, min_area, shape = ps.seg, ps.min_area, ps.shape
@@ -399,7 +400,7 @@ class _Step:
                                                          or o.mask_area > whole.mask_area):
                 whole = o
         if (whole is None or whole.touches_roi
-                or not 0.6 * ref_a <= whole.mask_area <= 1.6 * ref_a):
+                or not 0.6 * ref_a <= whole.mask_area <= 2.5 * ref_a):
             return None
         work = reg0.work([whole.label], np.nan, margin=work_margin(None, None, whole.bbox))
         sel = work.sel.view(bool)
