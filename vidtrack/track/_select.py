@@ -503,9 +503,10 @@ class Acquirer:
         self.ambiguous = []
         ready = [tr for tr in kept if tr.steady(self.confirm, min_motion=self.min_motion)
                  and (accept is None or accept(tr))]
-        # a part of a whole missed in this frame only does not take its place
-        wholes = ready + [tr for tr in missed if tr.steady(self.confirm,
-                                                           min_motion=self.min_motion)]
+        # a part of a whole about to fly, missed in this frame only, does not take its
+        # place
+        wholes = ready + [tr for tr in missed if tr.almost_flying() and tr.steady(
+            self.confirm, min_motion=self.min_motion)]
         if not ready:
             return None
         # a few noise pixels by the rotor can drift steadily for 3 frames: while a
