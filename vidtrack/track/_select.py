@@ -164,7 +164,9 @@ class Tracklet:
         return float(a.max() / max(a.min(), 1.0))
 
     def steady(self, confirm, *, min_motion):
-        """Seen ``confirm`` times in a row, moving, and the last point where predicted."""
+        """Seen ``confirm`` times in a row (a frame missed between them allowed: only a
+        tracklet of any shape but a rod's is picked up over one), moving, and the last
+        point where predicted."""
         if len(self.points) < confirm:
             return False
         pts = np.array(self.points[-confirm:])
@@ -500,8 +502,9 @@ class Acquirer:
         live, taken_tr, used = self._associate(t, blobs)
         fresh = [Tracklet(t, b) for j, b in enumerate(blobs) if j not in used]
         kept = [tr for i, tr in enumerate(live) if i in taken_tr]
-        # (a straw's is not: picked up again over the gap, a dark straw riding its
-        # blade with a rider was followed from 22 frames 0.5-3.4 px off, unflagged)
+        # (those missed in this frame are kept for the next, where :meth:`_associate`
+        # picks up any but a rod's: picked up so, a dark straw riding its blade with a
+        # rider was followed from 22 frames 0.5-3.4 px off, unflagged)
         missed = [tr for i, tr in enumerate(live) if i not in taken_tr]
         self.tracklets = kept + [tr for tr in missed if t - tr.last_t <= 1.5] + fresh
         self.ambiguous = []
