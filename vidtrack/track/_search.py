@@ -9,7 +9,7 @@ import copy
 
 import numpy as np
 
-from vidtrack.track._rods import rodlike_run
+from vidtrack.track._rods import rod_fill, rodlike_run
 from vidtrack.track._coverage import measure
 from vidtrack.track._mixed import measure_mixed
 from vidtrack.track._segment import edge_stats, read_level, work_margin
@@ -22,6 +22,14 @@ from vidtrack.track._touch import edge_width, other_behind
 SEARCH_BOXES = 16
 #: Components per polarity and box measured while searching (largest first).
 SEARCH_PARTS = 24
+#: A rod is straight: its coverage fills at least this share of the rectangle its
+#: moments describe (:func:`~vidtrack.track._rods.rod_fill`; a straw 0.85 to 1, the bright
+#: crescent round a dark toy's rim 0.45 to 0.6).
+STRAIGHT_FILL = 0.7
+#: A shadow shows beside its object at most about as large as the object, its penumbra
+#: aside: a blurred part more than this many times the size of the sharp part beside it
+#: is not the sharp part's shadow.
+SHADOW_AREA_MAX = 2.0
 
 
 def search_blobs(seg, i, frame, gain, *, shape, min_area, blade=None, near=None,
@@ -135,8 +143,12 @@ def _wholes(seg, i, frame, r, gain, parts, *, shape, min_area):
         # beside a rod, a part of the other polarity whose edges are not as sharp as the
         # rod's is something else (a blade, its shadow), where a texture's patches
         # pass smoothly through the wall's grey level from one polarity to the other
+        # (a blurred dark part much larger than the sharp bright one is not its shadow:
+        # a dark toy whose bright crescent at its rim is sharp, its own dark texture
+        # fading into the wall)
         wb, wd = edge_width(inside[1]), edge_width(inside[-1])
-        unlike = wd >= 1.6 * wb or (_rods(inside[big]) and wb >= 1.6 * wd)
+        unlike = (wd >= 1.6 * wb and area_of[-1] <= SHADOW_AREA_MAX * area_of[1]) or \
+            (_rods(inside[big]) and wb >= 1.6 * wd)
         if (not enclosed and np.isfinite(wb) and np.isfinite(wd) and unlike
                 and not _both_without_shadow(work, min_area)):
             continue
@@ -152,9 +164,17 @@ def _wholes(seg, i, frame, r, gain, parts, *, shape, min_area):
 
 
 def _rods(parts):
-    """Whether rods (:func:`rodlike_run`) hold at least two thirds of the parts' area."""
-    return sum(q.mask_area for q in parts if rodlike_run([q])) \
+    """Whether rods (:func:`rodlike_run`, straight: :data:`STRAIGHT_FILL`) hold at least
+    two thirds of the parts' area."""
+    return sum(q.mask_area for q in parts if rodlike_run([q]) and _straight(q)) \
         >= 2.0 / 3.0 * sum(q.mask_area for q in parts)
+
+
+def _straight(q):
+    """Whether a part fills its moments' rectangle as a straight rod does (a rod too thin
+    for its width to say: yes)."""
+    fill = rod_fill(q)
+    return fill is None or fill >= STRAIGHT_FILL
 
 
 def _both_without_shadow(work, min_area):
