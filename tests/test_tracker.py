@@ -67,6 +67,11 @@ def default_run():
     return synth_run("default")
 
 
+#: Centroid RMS (px) held on ``vidtrack synth``'s straws: the issue's 0.06 px where the
+#: pixels can show it (see the top view's note in the test).
+TRUTH_RMS = {"front": 0.06, "top": 0.1}
+
+
 @pytest.mark.parametrize("view", ["front", "top"])
 def test_centroid_rms_on_unflagged_frames(default_run, view):
     tr, per_frame, _ = _track_view(default_run, view)
@@ -75,8 +80,12 @@ def test_centroid_rms_on_unflagged_frames(default_run, view):
     err = centroid_errors(tr, per_frame)
     ok = tr.usable
     assert ok.sum() >= 0.6 * len(per_frame)
-    assert np.sqrt(np.mean(err[ok] ** 2)) <= 0.25
-    assert np.all(err[ok] < 1.0)
+    # measured: 0.028 px front (0.09 at most), 0.075 px top (0.13): in the top view the
+    # 1.4 px straw lies along a pixel row all through, where its pixels' own coverage
+    # centroid is 0.043 px RMS from the silhouette's centre (a box-filtered strip 1.4 px
+    # wide: up to 0.07 px as it moves across the row; docs/tracker.md)
+    assert np.sqrt(np.mean(err[ok] ** 2)) <= TRUTH_RMS[view]
+    assert np.all(err[ok] < 0.3)
     # the time base is the capture rate, not the container's 30 fps
     assert np.allclose(np.diff(tr.data["t_s"]), 1 / 1200.0)
     if view == "top":       # edge-on to the rotor: the merge carries the release over
@@ -185,8 +194,8 @@ def test_second_straw_crossing_never_gives_a_wrong_unflagged_frame(view):
     err = centroid_errors(tr, per_frame)
     ok = tr.usable
     assert ok.sum() >= 20
-    assert np.all(err[ok] <= 2.0)
-    assert np.sqrt(np.mean(err[ok] ** 2)) <= 0.25
+    assert np.all(err[ok] <= 0.3)
+    assert np.sqrt(np.mean(err[ok] ** 2)) <= TRUTH_RMS[view]     # measured 0.029, 0.082
     # where the renderer says the two straws share a pixel, the frame is flagged
     overlap = per_frame["overlap"].to_numpy()
     assert overlap.any()
@@ -276,7 +285,7 @@ def test_leaving_the_frame_is_flagged_border_then_lost():
     err = centroid_errors(tr, per_frame)
     ok = tr.usable
     assert np.all(per_frame["fully_in_view"].to_numpy()[ok])
-    assert np.sqrt(np.mean(err[ok] ** 2)) <= 0.25
+    assert np.sqrt(np.mean(err[ok] ** 2)) <= TRUTH_RMS["front"]   # measured 0.022
 
 
 def test_sixteen_bit_image_folder():
