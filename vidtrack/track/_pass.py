@@ -153,8 +153,9 @@ class Pass:
 
     def __init__(self, source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
                  max_gap=5, blade_region=None, centre_line_px=None, warmup_frames=None,
-                 quiet=True, cancel=None, target=None, shadow="aside"):
+                 quiet=True, cancel=None, target=None, shadow="aside", slow=False):
         self.source, self.view, self.quiet, self.cancel = source, view, quiet, cancel
+        self.slow = slow         # a slow object's motion counts (Tracklet.slow_but_moving)
         self.shadow = shadow     # a silhouette's attached shadow: "aside" or "cut"
         self.target, self.k_sigma = target, k_sigma
         self.t_idx = None        # the target's source index (:meth:`run`)
@@ -218,7 +219,8 @@ class Pass:
 
         self.min_area = max(1, int(min_area_px))
         self.acq = Acquirer(confirm=3, max_step=0.25 * max(rows, cols), min_motion=0.3,
-                            centre_line=centre_line_px, tiny_px=3 * self.min_area)
+                            centre_line=centre_line_px, tiny_px=3 * self.min_area,
+                            slow=slow)
         self.fol = None
         self.lost_state = None      # (Predictor, tau) of the straw when it was lost
         self.last_level = float("nan")

@@ -163,7 +163,7 @@ class Tracklet:
         a = np.array([b.mask_area for b in self.blobs[-n:]], float)
         return float(a.max() / max(a.min(), 1.0))
 
-    def steady(self, confirm, *, min_motion):
+    def steady(self, confirm, *, min_motion, slow=False):
         """Seen ``confirm`` times in a row (a frame missed between them allowed: only a
         tracklet of any shape but a rod's is picked up over one), moving, and the last
         point where predicted."""
@@ -173,7 +173,7 @@ class Tracklet:
         if np.any(np.diff(pts[:, 0]) > 2.5):
             return False
         step = np.hypot(*(pts[-1, 1:] - pts[0, 1:])) / max(pts[-1, 0] - pts[0, 0], 1e-9)
-        if step < min_motion:
+        if step < min_motion and not (slow and self.slow_but_moving()):
             return False
         # constant-velocity check of the last point from the two before it
         if confirm >= 3:
@@ -185,6 +185,22 @@ class Tracklet:
                 return False
         areas = np.array([b.mask_area for b in self.blobs[-confirm:]], float)
         return areas.max() <= 2.5 * max(areas.min(), 1.0)
+
+    def slow_but_moving(self):
+        """Moving, too slowly for the frame-to-frame test (an object filmed at 10 000
+        frames/s, 0.1 px a frame): over its last :data:`SLOW_SPAN` points (frames, with
+        none missed) it went at least :data:`SLOW_MIN_PX` along a straight line, its
+        points off that line by at most 1/8 of the way (a still blob's centroid jitters
+        about a place)."""
+        pts = np.array(self.points[-SLOW_SPAN:])
+        if len(pts) < SLOW_SPAN // 2 or np.any(np.diff(pts[:, 0]) > 1.5):
+            return False
+        t = pts[:, 0] - pts[0, 0]
+        a = np.column_stack([t, np.ones_like(t)])
+        coef, *_ = np.linalg.lstsq(a, pts[:, 1:], rcond=None)
+        way = float(np.hypot(*coef[0])) * float(t[-1])
+        off = float(np.sqrt(np.mean(np.sum((pts[:, 1:] - a @ coef) ** 2, axis=1))))
+        return way >= SLOW_MIN_PX and off <= way / 8.0
 
     def flying(self, *, min_points=5):
         """Moving like a thrown object: far, smoothly, keeping its size.
@@ -230,6 +246,11 @@ class Tracklet:
         return int(round(t)) + origin, (float(u), float(v))
 
 
+#: Points (frames) over which a tracklet too slow for the acquirer's frame-to-frame
+#: motion is seen to move (:meth:`Tracklet.slow_but_moving`), and the least way it must
+#: go in them (px): 0.05 px a frame at least.
+SLOW_SPAN = 40
+SLOW_MIN_PX = 2.0
 #: Most points a tracklet keeps.
 MAX_POINTS = 256
 
@@ -416,6 +437,10 @@ class Acquirer:
     tiny_px : int
         A candidate with a blob of fewer pixels than this is dropped while one without
         is steady too.
+    slow : bool
+        A tracklet slower than ``min_motion`` moves when it goes steadily over many
+        frames (:meth:`Tracklet.slow_but_moving`): only where nothing moved faster in the
+        whole footage (a rotor turning slowly would be taken).
 
     Notes
     -----
@@ -433,8 +458,10 @@ class Acquirer:
     over.
     """
 
-    def __init__(self, *, confirm, max_step, min_motion, centre_line=None, tiny_px=0):
+    def __init__(self, *, confirm, max_step, min_motion, centre_line=None, tiny_px=0,
+                 slow=False):
         self.confirm = confirm
+        self.slow = slow
         self.tiny_px = tiny_px
         self.max_step = max_step
         self.min_motion = min_motion
@@ -508,12 +535,13 @@ class Acquirer:
         missed = [tr for i, tr in enumerate(live) if i not in taken_tr]
         self.tracklets = kept + [tr for tr in missed if t - tr.last_t <= 1.5] + fresh
         self.ambiguous = []
-        ready = [tr for tr in kept if tr.steady(self.confirm, min_motion=self.min_motion)
+        ready = [tr for tr in kept
+                 if tr.steady(self.confirm, min_motion=self.min_motion, slow=self.slow)
                  and (accept is None or accept(tr))]
         # a part of a whole about to fly, missed in this frame only, does not take its
         # place
         wholes = ready + [tr for tr in missed if tr.almost_flying() and tr.steady(
-            self.confirm, min_motion=self.min_motion)]
+            self.confirm, min_motion=self.min_motion, slow=self.slow)]
         if not ready:
             return None
         # a few noise pixels by the rotor can drift steadily for 3 frames: while a

@@ -291,6 +291,27 @@ def log_tracked(tr):
         log.debug("%s: %s", tr.view or "view", note)
 
 
+#: Below this share of the frames clean, the tracker looks for a slow object too ...
+SLOW_LOOK = 0.05
+#: ... and takes it where it went at least this many times its size (its disc's
+#: diameter) over the frames the background was taken from: a pixel on its way is then
+#: covered in at most 40 % of them, and the median does not hold it. (A ball 12 px
+#: across going 0.05 px a frame, 1.25 times its size over 300 frames, is in the
+#: background, and seen against itself its track was 2 to 5 px off.)
+SLOW_TRAVEL = 2.5
+
+
+def _travel(ps):
+    """How far (in its own sizes) the object of pass ``ps`` went over the frames its
+    background was taken from (the frames' span, between its first and last position
+    there)."""
+    idx = [i for i in ps.background.frames if 0 <= i < ps.n and np.isfinite(ps.u[i])]
+    if len(idx) < 2 or not np.isfinite(ps.area).any():
+        return 0.0
+    size = 2.0 * float(np.sqrt(np.nanmedian(ps.area) / np.pi))
+    return float(np.hypot(ps.u[idx[-1]] - ps.u[idx[0]], ps.v[idx[-1]] - ps.v[idx[0]])) / size
+
+
 def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
                 max_gap=5, blade_region=None, centre_line_px=None, warmup_frames=None,
                 quiet=True, cancel=None, target=None):
@@ -301,6 +322,23 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
               blade_region=blade_region, centre_line_px=centre_line_px,
               warmup_frames=warmup_frames, quiet=quiet, cancel=cancel, target=target)
     ps = Pass(source, background=background, **kw).run()
+    if np.count_nonzero(ps.clean) < max(3, SLOW_LOOK * ps.n):
+        # (next to) nothing moved 0.3 px a frame steadily: a slow object (high frame
+        # rates), seen to move over many frames (only then: a rotor's tooth turning
+        # slowly would be)
+        slow = Pass(source, background=background, **{**kw, "slow": True}).run()
+        if np.count_nonzero(slow.clean) > np.count_nonzero(ps.clean):
+            travel = _travel(slow)
+            said = (f"search: {np.count_nonzero(ps.clean)} clean frames of objects moving "
+                    f"0.3 px a frame or more; a slower one, moving steadily over 40 frames, "
+                    f"went {travel:.2g} times its size over the frames the background was "
+                    f"taken from")
+            if travel >= SLOW_TRAVEL:
+                slow.notes.append(said)
+                ps = slow
+            else:
+                ps.notes.append(f"{said}, which then holds it (seen against itself, it "
+                                f"would be off by a part of its size): not taken")
     shadow = ps.attached_shadow()
     if shadow is not None:
         # a shadow attached to it all through: measured again, without it
