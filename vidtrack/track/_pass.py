@@ -155,7 +155,6 @@ class Pass:
                  max_gap=5, blade_region=None, centre_line_px=None, warmup_frames=None,
                  quiet=True, cancel=None, target=None, shadow="aside", slow=False):
         self.source, self.view, self.quiet, self.cancel = source, view, quiet, cancel
-        self.slow = slow         # a slow object's motion counts (Tracklet.slow_but_moving)
         self.shadow = shadow     # a silhouette's attached shadow: "aside" or "cut"
         self.target, self.k_sigma = target, k_sigma
         self.t_idx = None        # the target's source index (:meth:`run`)

@@ -322,11 +322,12 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
               blade_region=blade_region, centre_line_px=centre_line_px,
               warmup_frames=warmup_frames, quiet=quiet, cancel=cancel, target=target)
     ps = Pass(source, background=background, **kw).run()
-    if np.count_nonzero(ps.clean) < max(3, SLOW_LOOK * ps.n):
+    if ps.moving_frames and np.count_nonzero(ps.clean) < max(3, SLOW_LOOK * ps.n):
         # (next to) nothing moved 0.3 px a frame steadily: a slow object (high frame
         # rates), seen to move over many frames (only then: a rotor's tooth turning
-        # slowly would be)
-        slow = Pass(source, background=background, **{**kw, "slow": True}).run()
+        # slowly would be); against the first pass's background
+        slow = Pass(source, background=ps.background, **{**kw, "slow": True}).run()
+        slow.notes[:0] = [note for note in ps.notes if note.startswith("background")]
         if np.count_nonzero(slow.clean) > np.count_nonzero(ps.clean):
             travel = _travel(slow)
             said = (f"search: {np.count_nonzero(ps.clean)} clean frames of objects moving "
