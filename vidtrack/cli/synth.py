@@ -192,6 +192,10 @@ def add_arguments(parser):
     g.add_argument("--person-at-side", action="store_true",
                    help="a person swaying and swinging an arm at the side of each view, "
                         "clear of the straw's path")
+    g.add_argument("--shake", type=_floats(2, "amplitude_px,freq_hz"), default=None,
+                   metavar="AMPLITUDE_PX,FREQ_HZ",
+                   help="the cameras vibrate: each whole image moved by up to AMPLITUDE_PX "
+                        "at FREQ_HZ (default: still), e.g. 1.5,9")
     g = p.add_argument_group("output")
     g.add_argument("--format", default="avi", choices=("avi", "png", "cine"),
                    help="footage: AVI video (default), png image folders or Phantom .cine")
@@ -237,7 +241,8 @@ def spec_from_args(args):
         distortion=args.distortion, dlt_views=args.dlt_views,
         camera_distance_in_scene=not args.no_camera_distance_in_scene,
         shadow=args.shadow, rider=args.rider, straw_polarity=args.straw_polarity,
-        highlight_grey=args.highlight, person_at_side=args.person_at_side)
+        highlight_grey=args.highlight, person_at_side=args.person_at_side,
+        shake=args.shake)
 
 
 def run(args):

@@ -28,6 +28,11 @@ All off by default (a run without them renders byte for byte as before they exis
   (every exposure sample, the rider's too), the rotor and the ruler leave free by a
   margin of 8 px, and never leaving it. A view without a free rectangle 24 px on a
   side gets no person (truth.json says so).
+- **shake** (``shake = (amplitude_px, freq_hz)``): each camera vibrates: its whole
+  image (background, machine, straw) is moved by :func:`camera_shift` (bicubic, the
+  border reflected) before the sensor noise. Every other position in truth.json is
+  where a still camera shows it; ``camera_du_px``, ``camera_dv_px`` say how far the
+  frame's content lies from there.
 
 Every position is computed from the geometry here, never from the rendered images.
 """
@@ -305,3 +310,13 @@ def capsule_gap(a, b, r, c, d, s):
     dist = min(_point_segment(a, c, d), _point_segment(b, c, d), _point_segment(c, a, b),
                _point_segment(d, a, b))
     return dist - r - s
+
+
+# --------------------------------------------------------------------------- the shake
+def camera_shift(spec, view_index, t):
+    """Where a shaking camera shows the scene at times ``t`` (s), against a still one:
+    ``(du, dv)`` px arrays. Across: ``A sin(2 pi f t + 0.7 k)``; down: ``0.6 A sin(2 pi f t
+    + 0.7 k + pi / 2)`` (``k`` the view's index: the cameras vibrate out of phase)."""
+    amp, freq = (float(x) for x in spec.shake)
+    phase = 2.0 * math.pi * freq * np.asarray(t, dtype=np.float64) + 0.7 * view_index
+    return amp * np.sin(phase), 0.6 * amp * np.sin(phase + 0.5 * math.pi)

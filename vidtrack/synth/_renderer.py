@@ -269,10 +269,23 @@ class _ViewRenderer:
                                    borderType=cv2.BORDER_CONSTANT)
         return cov
 
+    def _shaken(self, i, image):
+        """The noiseless frame i as the shaking camera shows it (whole image moved)."""
+        import cv2
+
+        du, dv = _distractors.camera_shift(self.spec, VIEW_NAMES.index(self.view.name),
+                                           self.track.t[i])
+        w = np.array([[1.0, 0.0, float(du)], [0.0, 1.0, float(dv)]])
+        rows, cols = image.shape
+        return cv2.warpAffine(image, w, (cols, rows), flags=cv2.INTER_CUBIC,
+                              borderMode=cv2.BORDER_REFLECT_101)
+
     def frame(self, i):
         """Frame i as written: noise added, quantised to ``bit_depth``."""
         image, facts = self.frame_float(i)
         self.info[i] = facts
+        if self.spec.shake is not None:
+            image = self._shaken(i, image)
         rng = np.random.default_rng([self.spec.seed, VIEW_NAMES.index(self.view.name),
                                      self.throw_index, i, 2])
         noisy = _raster.add_sensor_noise(image, rng, read_noise=self.read_noise,

@@ -32,7 +32,8 @@ CAMERA_FIELDS = ("cameras", "camera_distance_m", "camera_angle_deg", "distortion
 #: The distractors real footage taught (docs/synth.md, "Distractors"): off by default and
 #: then left out of ``to_dict`` (and so of truth.json), so that a run without them is
 #: rendered and described byte for byte as before they existed.
-DISTRACTOR_FIELDS = ("shadow", "rider", "straw_polarity", "highlight_grey", "person_at_side")
+DISTRACTOR_FIELDS = ("shadow", "rider", "straw_polarity", "highlight_grey", "person_at_side",
+                     "shake")
 #: How the rider (a thinner, dimmer rod flying with the straw) moves: ``riding`` side by
 #: side with the straw, turning with it and sliding along it; ``crossing`` drifting
 #: across it at an angle, centres coinciding at mid-flight.
@@ -127,7 +128,10 @@ class SynthSpec:
         ``highlight_grey`` grey level of a specular stripe along the straw's upper-left
         side, inside its silhouette (None: none) [None]; ``person_at_side`` a person
         (textured body, head and a swinging arm) swaying in the largest part of each
-        view that the straw's path, the rotor and the ruler leave free [False].
+        view that the straw's path, the rotor and the ruler leave free [False];
+        ``shake`` (amplitude_px, freq_hz): each camera vibrates, its whole image moved
+        by ``amplitude_px * sin(2 pi freq_hz t + phase)`` across and 0.6 of that, a
+        quarter turn later, down (truth.json: ``camera_du_px``, ``camera_dv_px``) [None].
     Pinhole cameras (docs/synth.md, "Perspective cameras")
         ``cameras`` "orthographic" | "perspective" | "square" ["orthographic"]:
         "perspective" renders two pinhole cameras ``cam1``, ``cam2`` at
@@ -210,6 +214,7 @@ class SynthSpec:
     straw_polarity: str | None = None
     highlight_grey: float | None = None
     person_at_side: bool = False
+    shake: tuple | None = None
 
     def __post_init__(self):
         _validate(self)
@@ -265,6 +270,8 @@ class SynthSpec:
             out.append("highlight")
         if self.person_at_side:
             out.append("person")
+        if self.shake is not None:
+            out.append("shake")
         return tuple(out)
 
     def view_axes(self, view):
@@ -458,6 +465,11 @@ def _validate_distractors(s):
                   f"({s.straw_level:.3g}) by at least 0.05, or the highlight is invisible")
     if not isinstance(s.person_at_side, (bool, np.bool_)):
         _fail(f"person_at_side must be true or false, got {s.person_at_side!r}")
+    if s.shake is not None:
+        sh = _vector("shake (amplitude_px, freq_hz)", s.shake, 2)
+        if not (0 < sh[0] <= 20 and 0 < sh[1] <= 0.5 * s.fps):
+            _fail(f"shake must be amplitude_px in (0, 20] and freq_hz in (0, fps/2 = "
+                  f"{0.5 * s.fps:g}], got {list(s.shake)}")
     if s.distractors and s.cameras != "orthographic":
         _fail(f"the distractors ({', '.join(s.distractors)}) are drawn in the orthographic "
               f"views only; cameras = {s.cameras} cannot have them")

@@ -14,6 +14,7 @@ import re
 import numpy as np
 
 from vidtrack.synth._views import _TOOTH_HALF_WIDTH_M
+from vidtrack.synth.spec import VIEW_NAMES
 
 __all__ = ["TRUTH_FILE", "TRUTH_SCHEMA"]
 
@@ -135,7 +136,8 @@ def _view_truth(spec, view, track, renderer, source):
                     & (np.maximum(a2[:, 1], b2[:, 1]) + r > -0.5)
                     & (np.minimum(a2[:, 1], b2[:, 1]) - r < h - 0.5))
         table.update(_second_columns(track, vis2))
-    extra = _distractor_truth(spec, track, info, t) if spec.distractors else None
+    extra = (_distractor_truth(spec, track, info, t, VIEW_NAMES.index(view.name))
+             if spec.distractors else None)
     if extra is not None:
         table.update(extra[0])
     release = _release_frame_of(t)
@@ -163,7 +165,7 @@ def _view_truth(spec, view, track, renderer, source):
     return out
 
 
-def _distractor_truth(spec, track, info, t):
+def _distractor_truth(spec, track, info, t, view_index):
     """Per-frame columns and the view's description of the distractors drawn."""
     from vidtrack.synth import _distractors
 
@@ -221,6 +223,12 @@ def _distractor_truth(spec, track, info, t):
             about["person"] = {"drawn": True, "box_px": [float(v) for v in p.box],
                                "extent_px": [float(v) for v in ext],
                                "height_px": float(p.scale)}
+    if spec.shake is not None:
+        du, dv = _distractors.camera_shift(spec, view_index, t)
+        cols.update({"camera_du_px": _json_list(du), "camera_dv_px": _json_list(dv)})
+        about["shake"] = {"amplitude_px": float(spec.shake[0]), "freq_hz": float(spec.shake[1]),
+                          "moves": "the whole image (every other position is where a still "
+                                   "camera shows it)"}
     return cols, about
 
 
