@@ -26,6 +26,7 @@ from vidtrack.track._select import Acquirer, Tracklet
 from vidtrack.track._step import follow
 from vidtrack.track._target import ambiguity_message, target_blob, target_index
 from vidtrack.track.background import Background, estimate_background, sample_indices
+from vidtrack.track.steady import Steadier
 
 #: Memory the start-of-footage buffer for the background may take (bytes).
 _WARMUP_BYTES = 96 * 1024 * 1024
@@ -153,8 +154,12 @@ class Pass:
 
     def __init__(self, source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
                  max_gap=5, blade_region=None, centre_line_px=None, warmup_frames=None,
-                 quiet=True, cancel=None, target=None, shadow="aside", slow=False):
+                 quiet=True, cancel=None, target=None, shadow="aside", slow=False,
+                 steady=None):
         self.source, self.view, self.quiet, self.cancel = source, view, quiet, cancel
+        # a shaking camera's frames moved back onto the background (another pass's
+        # Steadier, or measured on the warm-up's samples below)
+        self.steady = steady
         self.shadow = shadow     # a silhouette's attached shadow: "aside" or "cut"
         self.target, self.k_sigma = target, k_sigma
         self.t_idx = None        # the target's source index (:meth:`run`)
@@ -195,6 +200,18 @@ class Pass:
                                              frames=sidx)
             self.notes.append(f"background: median of {len(sidx)} frames spread over frames "
                               f"0..{warm - 1}")
+            if steady is None:
+                steady, note = Steadier.look([buffer[i] for i in sidx], sidx,
+                                             background.image)
+                if steady is not None:
+                    self.notes.append(note)
+            if steady is not None:
+                # the frames moved back onto one place, and their background again
+                self.steady = steady
+                self.buffer = buffer = deque(steady.warp(i, f) for i, f in enumerate(buffer))
+                background = estimate_background(
+                    [buffer[i] for i in sidx], pairs=[(buffer[i], buffer[i + 1]) for i in pidx],
+                    frames=sidx)
         elif not isinstance(background, Background):
             raise TrackError(f"background must be a vidtrack.track.background.Background, "
                              f"got {type(background).__name__}")
@@ -392,7 +409,7 @@ class Pass:
         while i >= 0:
             if i not in held:
                 lo = max(0, min(i, oldest) - chunk + 1)
-                held = {j: self.source[j] for j in range(lo, i + 1)}
+                held = {j: self.frame(j) for j in range(lo, i + 1)}
                 oldest = lo
             frame = held.pop(i)
             before = (u[i], v[i], area[i], angle[i], length[i], flags[i], clean[i], solid[i])
@@ -420,10 +437,20 @@ class Pass:
 
     # ------------------------------------------------------------------ the pass
 
+    def frame(self, i):
+        """Source frame ``i`` read again (random access), steadied as the stream is."""
+        frame = self.source[i]
+        return frame if self.steady is None else self.steady.warp(i, frame)
+
     def _stream(self):
+        held = len(self.buffer)
         while self.buffer:
             yield self.buffer.popleft()
-        yield from self.frames
+        if self.steady is None:
+            yield from self.frames
+        else:
+            for i, frame in enumerate(self.frames, start=held):
+                yield self.steady.warp(i, frame)
 
     def _checked(self, items):
         for item in items:
@@ -619,6 +646,8 @@ class Pass:
 
         if self.fol is not None and self.fol.level is not None:
             self.last_level = self.fol.level
+        if self.steady is not None:
+            self.notes.append(self.steady.summary())
         times = self.times
         columns = {"frame": fnums, "t_s": times, "u_px": u, "v_px": v, "area_px": area,
                    "angle_rad": self.angle, "length_px": length,

@@ -301,6 +301,10 @@ SLOW_LOOK = 0.05
 SLOW_TRAVEL = 2.5
 
 
+#: The notes of a first pass that a pass run again with its background keeps.
+_FIRST_NOTES = ("background", "camera: shakes")
+
+
 def _travel(ps):
     """How far (in its own sizes) the object of pass ``ps`` went over the frames its
     background was taken from (the frames' span, between its first and last position
@@ -326,8 +330,9 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         # (next to) nothing moved 0.3 px a frame steadily: a slow object (high frame
         # rates), seen to move over many frames (only then: a rotor's tooth turning
         # slowly would be); against the first pass's background
-        slow = Pass(source, background=ps.background, **{**kw, "slow": True}).run()
-        slow.notes[:0] = [note for note in ps.notes if note.startswith("background")]
+        slow = Pass(source, background=ps.background, steady=ps.steady,
+                    **{**kw, "slow": True}).run()
+        slow.notes[:0] = [note for note in ps.notes if note.startswith(_FIRST_NOTES)]
         if np.count_nonzero(slow.clean) > np.count_nonzero(ps.clean):
             travel = _travel(slow)
             said = (f"search: {np.count_nonzero(ps.clean)} clean frames of objects moving "
@@ -347,13 +352,14 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         said = (f"shadow: a soft darker part attached on the same side in {n_has} of {n_ok} "
                 f"clean frames (pulling the centroid by ({du:+.1f}, {dv:+.1f}) px)")
         try:
-            again = Pass(source, background=ps.background, shadow="cut", **kw).run()
+            again = Pass(source, background=ps.background, shadow="cut", steady=ps.steady,
+                         **kw).run()
         except TrackError as err:
             # (measured whole, as the first pass did, rather than not at all)
             ps.notes.append(f"{said}: measured with it, the second pass without it "
                             f"failing ({err})")
         else:
-            again.notes[:0] = [note for note in ps.notes if note.startswith("background")]
+            again.notes[:0] = [note for note in ps.notes if note.startswith(_FIRST_NOTES)]
             again.notes.append(f"{said}: a second pass measured the object without it")
             ps = again
     return ps.parts()

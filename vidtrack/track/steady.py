@@ -1,0 +1,218 @@
+"""A shaking camera: every frame moved back onto the background's place.
+
+A camera that rides on the machine, or stands on a floor the machine shakes, moves by a
+pixel or two as the machine vibrates. The tracker measures the object where it is in
+the frame; with the camera moving, that is not where it is in the scene, and the fit
+takes the camera's motion for the object's (a smooth 1 px shake at 9 Hz made k1 12 %
+and k4 10 % off on the sample run, with every frame tracked within 0.07 px).
+
+:meth:`Steadier.look` measures, on the frames the background is taken from, how far
+each lies from their median: up to 400 corners of the median (OpenCV's
+``goodFeaturesToTrack``, spread over 16 cells) are followed into each frame (pyramidal
+Lucas-Kanade, ``calcOpticalFlowPyrLK``); each cell votes with its corners' median
+shift, and the frame's shift is the mean of the corners' shifts that agree with the
+cells' median within half a pixel, where at least half the cells agree (a person, a
+hand, the object or a turning machine part hold a few cells: a textured person swaying
+at the side of the frame, with most of the corners, is not a shake). Below
+:data:`SHAKE_PX` (RMS) the camera is steady and nothing is done: no cost beyond that
+look. Above it, the samples are moved back and their median taken again (sharp, where
+the shaken one blurs the texture), and every frame is measured against it and moved
+back (:meth:`Steadier.warp`, bicubic) before it is tracked: the positions are then
+against the scene as the background shows it, up to one constant (where the camera
+was on average over the sampled frames). Translation only: a camera that turns about
+its axis, or zooms, is not followed.
+
+Internal to the tracker (:mod:`vidtrack.track._pass`).
+"""
+
+import math
+
+import cv2
+import numpy as np
+
+#: Shake (RMS of the sampled frames' shifts from their mean, px) above which the footage
+#: is steadied. The look's own noise on steady footage is 0.01-0.04 px (synth runs, a
+#: badminton camera); the real clips of docs/tracker.md show smooth motions of 0.055 px
+#: (diabolo), 0.12-0.13 px (the bear's phone) and 0.32 px (ball toss), all left alone:
+#: steadied at 0.25 px, the ball toss's variants (inverted, half the size, dimmer) fell
+#: on either side of the threshold and their tracks differed from the clip's by up to
+#: 2.9 px; at 0.1 (an earlier alignment) a bear clip kept 37 of 70 frames against 56.
+SHAKE_PX = 0.5
+#: Corners followed (at most), and the fewest that must agree for a frame's shift.
+CORNERS, AGREE_MIN = 400, 12
+#: The cells (about square) the corners are spread over (each votes once), and how strong a
+#: corner must be against the strongest in the frame (its smaller eigenvalue).
+_CELLS, _QUALITY = 16, 3e-4
+#: No corner nearer the frame's edge (px): what the camera brings in or takes out there
+#: is not a shift of what was there.
+_EDGE = 16
+_LK = dict(winSize=(21, 21), maxLevel=3,
+           criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01))
+
+
+def _eight(frame, lo, hi):
+    """A frame as 8 bits (Lucas-Kanade's input), grey levels ``lo..hi`` to 0..255."""
+    f = np.asarray(frame, dtype=np.float32)
+    return np.clip((f - lo) * (255.0 / max(hi - lo, 1e-6)), 0, 255).astype(np.uint8)
+
+
+def _back(img, sh):
+    """``img`` moved back by the shift ``sh`` (bicubic; same dtype)."""
+    w = np.array([[1.0, 0.0, sh[0]], [0.0, 1.0, sh[1]]], np.float32)
+    rows, cols = img.shape
+    return cv2.warpAffine(img, w, (cols, rows), flags=cv2.INTER_CUBIC | cv2.WARP_INVERSE_MAP,
+                          borderMode=cv2.BORDER_REPLICATE)
+
+
+class _Corners:
+    """Corners of a reference image, spread over a grid of cells, followed into other
+    frames; each cell votes with its corners' median shift (a person or a machine part,
+    however rich in corners, holds a few cells, not the frame)."""
+
+    def __init__(self, ref, lo, hi):
+        self.lo, self.hi = lo, hi
+        self.ref8 = _eight(ref, lo, hi)
+        rows, cols = ref.shape
+        eig = cv2.cornerMinEigenVal(self.ref8, 3)
+        least = _QUALITY * float(eig.max())
+        pts, cells = [], []
+        # cells about square, about _CELLS of them over the frame less its edge
+        inner_r, inner_c = rows - 2 * _EDGE, cols - 2 * _EDGE
+        if inner_r >= 8 and inner_c >= 8:
+            side = math.sqrt(inner_r * inner_c / _CELLS)
+            nr, nc = max(1, round(inner_r / side)), max(1, round(inner_c / side))
+            for a in range(nr):
+                for b in range(nc):
+                    r0, r1 = _EDGE + a * inner_r // nr, _EDGE + (a + 1) * inner_r // nr
+                    c0, c1 = _EDGE + b * inner_c // nc, _EDGE + (b + 1) * inner_c // nc
+                    top = float(eig[r0:r1, c0:c1].max())
+                    if not top > least:
+                        continue
+                    got = cv2.goodFeaturesToTrack(self.ref8[r0:r1, c0:c1],
+                                                  CORNERS // _CELLS, least / top, 5)
+                    if got is not None:
+                        pts.append(got.reshape(-1, 2) + np.float32([c0, r0]))
+                        cells.extend([a * nc + b] * len(got))
+        self.pts = np.concatenate(pts).reshape(-1, 1, 2).astype(np.float32) if pts else None
+        self.cells = np.asarray(cells)
+
+    def shift(self, frame, init=(0.0, 0.0)):
+        """Where ``frame``'s content lies against the reference (px), or None: the median
+        of the cells' shifts, where at least half the cells that vote (and 2) agree
+        with it within half a pixel; the mean of their corners that agree too."""
+        if self.pts is None or len(self.pts) < AGREE_MIN:
+            return None
+        img = _eight(frame, self.lo, self.hi)
+        guess = self.pts + np.float32(init)
+        got, st, _ = cv2.calcOpticalFlowPyrLK(self.ref8, img, self.pts, guess.copy(),
+                                              flags=cv2.OPTFLOW_USE_INITIAL_FLOW, **_LK)
+        ok = st.ravel() == 1
+        d = (got - self.pts).reshape(-1, 2)[ok]
+        cells = self.cells[ok]
+        votes = {c: np.median(d[cells == c], axis=0) for c in np.unique(cells)
+                 if np.count_nonzero(cells == c) >= 2}
+        if len(votes) < 2:
+            return None
+        v = np.array(list(votes.values()))
+        med = np.median(v, axis=0)
+        agree_cells = [c for c, m in votes.items() if np.all(np.abs(m - med) <= 0.5)]
+        if len(agree_cells) < max(2, 0.5 * len(votes)):
+            return None
+        agree = np.isin(cells, agree_cells) & np.all(np.abs(d - med) <= 0.5, axis=1)
+        if np.count_nonzero(agree) < AGREE_MIN:
+            return None
+        m = d[agree].mean(axis=0)
+        return float(m[0]), float(m[1])
+
+
+def _range(frames):
+    lo, hi = np.percentile(np.stack([f[::4, ::4] for f in frames[:5]]), [0.5, 99.5])
+    return float(lo), float(hi)
+
+
+class Steadier:
+    """Frames of a shaking camera moved back onto a reference (see the module).
+
+    Attributes
+    ----------
+    shifts : dict
+        Source index -> ``(du, dv)`` px: where frame content lies against the reference.
+    failed : int
+        Frames whose shift could not be measured (taken from the frame before).
+    """
+
+    def __init__(self, corners, shifts):
+        self.corners = corners
+        self.shifts = dict(shifts)
+        self.failed = 0
+        self._last = (0.0, 0.0)
+
+    @classmethod
+    def look(cls, samples, frames, median=None):
+        """Measure the shake on the background's sampled frames.
+
+        Parameters
+        ----------
+        samples : list of numpy.ndarray
+            The sampled frames (at least 3).
+        frames : sequence of int
+            Their source indices.
+        median : numpy.ndarray, optional
+            Their per-pixel median, where it is known (the background's image).
+
+        Returns
+        -------
+        (Steadier or None, str)
+            None where the camera is steady; and a note saying what was measured.
+        """
+        lo, hi = _range(samples)
+        ref = (np.median(np.stack(samples), axis=0) if median is None else median)
+        ref = np.asarray(ref, np.float32)
+        corners = _Corners(ref, lo, hi)
+        got = [corners.shift(s) for s in samples]
+        sh = np.array([g for g in got if g is not None])
+        if len(sh) < 3:
+            return None, ("camera: too few corners agree between the sampled frames to "
+                          "measure a shake: taken as steady")
+        rms = float(np.sqrt(np.mean(np.sum((sh - sh.mean(axis=0)) ** 2, axis=1))))
+        if rms <= SHAKE_PX:
+            return None, (f"camera: steady (the sampled frames lie within {rms:.2g} px RMS "
+                          f"of each other)")
+        # moved back, their median is sharp where the shaken one blurs the texture
+        ref = np.median(np.stack([_back(np.asarray(s, np.float32), g)
+                                  for s, g in zip(samples, got) if g is not None]), axis=0)
+        steady = cls(_Corners(ref.astype(np.float32), lo, hi), {})
+        for i, s, g in zip(frames, samples, got):
+            steady.shift(int(i), s, init=(0.0, 0.0) if g is None else g)
+        return steady, (f"camera: shakes by {rms:.2g} px RMS over the sampled frames: every "
+                        f"frame is moved back onto their median before it is tracked "
+                        f"(positions against the scene)")
+
+    def shift(self, i, frame, *, init=None):
+        """Where frame ``i``'s content lies against the reference (px), measured once."""
+        if i in self.shifts:
+            return self.shifts[i]
+        got = self.corners.shift(frame, self._last if init is None else init)
+        if got is None and init is None:
+            got = self.corners.shift(frame)
+        if got is None:
+            self.failed += 1
+            got = self._last
+        self.shifts[i] = self._last = got
+        return got
+
+    def warp(self, i, frame):
+        """Frame ``i`` moved back onto the reference (same shape and dtype)."""
+        return _back(frame, self.shift(i, frame))
+
+    def summary(self):
+        """A note on the shifts measured: their RMS, largest, failures."""
+        vals = np.array(list(self.shifts.values()))
+        dev = vals - vals.mean(axis=0)
+        rms = float(np.sqrt(np.mean(np.sum(dev ** 2, axis=1))))
+        note = (f"camera: {len(vals)} frames moved back, by {rms:.2g} px RMS, up to "
+                f"{float(np.abs(vals).max()):.2g} px")
+        if self.failed:
+            note += (f"; in {self.failed} frames too few corners agreed (moved as the frame "
+                     f"before)")
+        return note
