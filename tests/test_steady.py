@@ -171,3 +171,34 @@ def test_bad_shake_exits_2(tmp_path, vidtrack_cli, bad):
     assert res.returncode == 2, res.stderr
     assert "shake" in res.stderr
     assert not out.exists()
+
+
+def test_tracks_keep_the_camera_shift_and_the_footage_as_shot_is_drawn_with_it(shaken):
+    # tracks.h5 keeps where the camera put each frame: the steadied point plus the shift
+    # is where the straw is in the footage as shot (no constant left), and that is where
+    # the contact sheet marks it
+    from vidtrack.report.contact_sheet import contact_crops
+    from vidtrack.run.tracks_file import read_tracks
+
+    run, truth, _ = shaken
+    tf = read_tracks(run / "vidtrack" / "tracks.h5")
+    for view in ("front", "top"):
+        d = tf.tracks[view].data
+        tab = _truth(truth, view)
+        ok = tf.tracks[view].usable
+        fr = d["frame"].to_numpy()[ok]
+        u = d["u_px"].to_numpy()[ok] + d["camera_du_px"].to_numpy()[ok]
+        v = d["v_px"].to_numpy()[ok] + d["camera_dv_px"].to_numpy()[ok]
+        err = np.hypot(u - (tab["u_coverage_px"][fr] + tab["camera_du_px"][fr]),
+                       v - (tab["v_coverage_px"][fr] + tab["camera_dv_px"][fr]))
+        assert np.sqrt(np.mean(err ** 2)) < 0.15 and err.max() < 0.8, (view, err.max())
+    csv = __import__("pandas").read_csv(run / "vidtrack" / "tracks.csv")
+    assert {"camera_du_px", "camera_dv_px"} <= set(csv.columns)
+    d = tf.tracks["front"].data
+    with open_source(run / "front.avi", fps=1200) as src:
+        crops, _ = contact_crops({"front": src}, {"front": d}, {}, flight=4)
+    assert crops
+    for c in crops:
+        k = int(np.flatnonzero(d["frame"].to_numpy() == c.frame)[0])
+        want = (d["u_px"][k] + d["camera_du_px"][k], d["v_px"][k] + d["camera_dv_px"][k])
+        assert c.measured_px == pytest.approx(want, abs=1e-9)

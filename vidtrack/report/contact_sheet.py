@@ -147,7 +147,7 @@ def contact_crops(sources, tracks, paths, *, bit_depths=None, flight=FLIGHT_CROP
     (list of Crop, list of str)
         The tiles and notes (frames that could not be shown).
     """
-    from vidtrack.report.overlay import draw_marks, to_bgr8
+    from vidtrack.report.overlay import camera_shifts, draw_marks, to_bgr8
 
     crops, notes = [], []
     shown = {n: d for n, d in tracks.items() if n in sources}
@@ -157,9 +157,12 @@ def contact_crops(sources, tracks, paths, *, bit_depths=None, flight=FLIGHT_CROP
         src = sources[name]
         frame_no = int(np.asarray(d["frame"])[k])
         t_s = float(np.asarray(d["t_s"], float)[k])
-        uv = (float(np.asarray(d["u_px"], float)[k]), float(np.asarray(d["v_px"], float)[k]))
+        # (a steadied view's points and path moved as the camera moved the footage)
+        sh = camera_shifts(d, len(np.asarray(d["frame"])))[k]
+        uv = (float(np.asarray(d["u_px"], float)[k]) + sh[0],
+              float(np.asarray(d["v_px"], float)[k]) + sh[1])
         flags = int(np.asarray(d["flags"])[k])
-        fitted = (paths[name].at_frames([frame_no], [t_s])[0] if name in paths
+        fitted = (paths[name].at_frames([frame_no], [t_s])[0] + sh if name in paths
                   else np.array([np.nan, np.nan]))
         measured = uv if np.all(np.isfinite(uv)) else None
         centre = measured if measured is not None else (
@@ -175,7 +178,9 @@ def contact_crops(sources, tracks, paths, *, bit_depths=None, flight=FLIGHT_CROP
         img, corner = _crop(src[frame_no], centre, size)
         zoom = tile / size
         img = to_bgr8(img, (bit_depths or {}).get(name, 8), zoom)
-        draw_marks(img, measured=measured, flags=flags, path=polylines.get(name),
+        line = polylines.get(name)
+        draw_marks(img, measured=measured, flags=flags,
+                   path=None if line is None else line + sh,
                    fitted=fitted, scale=zoom, offset=corner, radius=max(6.0, tile / 22))
         crops.append(Crop(view=name, frame=frame_no, flags=flags, why=why, image=img,
                           corner_px=(float(corner[0]), float(corner[1])), zoom=zoom,

@@ -101,6 +101,18 @@ def _pt(uv):
     return (int(round(uv[0] * _ONE)), int(round(uv[1] * _ONE)))
 
 
+def camera_shifts(track, n):
+    """A steadied view's camera shift per row, ``(n, 2)`` px (zeros where the camera
+    did not shake, or a frame's shift is unknown): tracks.h5 keeps a steadied view's
+    points and fitted path where a still camera sees them, and the footage as shot shows
+    them moved by it."""
+    if "camera_du_px" not in track or "camera_dv_px" not in track:
+        return np.zeros((n, 2))
+    sh = np.column_stack([np.asarray(track["camera_du_px"], dtype=np.float64),
+                          np.asarray(track["camera_dv_px"], dtype=np.float64)])
+    return np.where(np.isfinite(sh), sh, 0.0)
+
+
 def draw_marks(img, *, measured, flags, path=None, fitted=None, scale=1.0,
                offset=(0.0, 0.0), radius=None):
     """Draw the fitted path, the fitted point and the measured point on ``img``.
@@ -253,6 +265,7 @@ def write_overlay(source, out_dir, view, track, path=None, *, every=1, scale=1.0
     u = np.asarray(track["u_px"], dtype=np.float64)
     v = np.asarray(track["v_px"], dtype=np.float64)
     fl = np.asarray(track["flags"], dtype=np.int64)
+    shifts = camera_shifts(track, len(frames))
     numbers = source.frame_numbers
     times = source.times_s
     fitted = polyline = None
@@ -275,9 +288,10 @@ def write_overlay(source, out_dir, view, track, path=None, *, every=1, scale=1.0
                 f = int(numbers[i])
                 k = row_of.get(f)
                 flags = int(fl[k]) if k is not None else 0
-                draw_marks(img, measured=None if k is None else (u[k], v[k]), flags=flags,
-                           path=polyline, fitted=None if fitted is None else fitted[i],
-                           scale=scale)
+                sh = shifts[k] if k is not None else np.zeros(2)
+                draw_marks(img, measured=None if k is None else (u[k] + sh[0], v[k] + sh[1]),
+                           flags=flags, path=None if polyline is None else polyline + sh,
+                           fitted=None if fitted is None else fitted[i] + sh, scale=scale)
                 status = flag_text(flags) if k is not None else "not tracked"
                 colour = flag_colour(flags) if k is not None else _GREY
                 draw_banner(img, [f"{view}  frame {f}  t {times[i]:.5f} s", status],

@@ -166,7 +166,9 @@ def overlay_run(run_dir, *, views=None, every=1, scale=1.0, frame_range=None, qu
                               (paths[n].notes if n in paths else ())]
                     data = tf.tracks[n].data
                     r = write_overlay(src, out, n, {c: data[c].to_numpy() for c in
-                                                    ("frame", "u_px", "v_px", "flags")},
+                                                    ("frame", "u_px", "v_px", "flags",
+                                                     "camera_du_px", "camera_dv_px")
+                                                    if c in data},
                                       paths.get(n), every=every, scale=scale, quiet=quiet)
                 if r.note:
                     notes.append(f"{label}, view {n}: {r.note}")

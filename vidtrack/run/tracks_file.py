@@ -7,7 +7,9 @@ Layout (HDF5, written with h5py, whole or not at all)::
                              views_sha256 (the views' values as written: views_digest)
     /front, /top      datasets (one value per frame): frame (int64), t_s, u_px, v_px,
                       area_px, angle_rad, length_px (float64), flags (int32),
-                      manual (uint8 0/1; only in a view with points placed by hand)
+                      manual (uint8 0/1; only in a view with points placed by hand),
+                      camera_du_px, camera_dv_px (float64; only in a view whose
+                      shaking camera was steadied)
                       attrs: release_frame (-1: none), release_t_s (NaN: none),
                              release_note, fps, frame_shape, noise_sigma, k_sigma,
                              straw_level, scatter_px, notes (JSON)
@@ -62,6 +64,8 @@ _TRACKS_CSV_FIRST = ("view", "frame", "t_s", "u_px", "v_px", "flags")
 #: A view's boolean column (dataset, in tracks.h5 as 0/1) of points placed by hand; only
 #: in a view that has some (vidtrack.track.corrections).
 _MANUAL = "manual"
+#: A steadied view's camera shift (vidtrack.track.tracker.CAMERA_COLUMNS)
+_CAMERA = ("camera_du_px", "camera_dv_px")
 
 
 @dataclass(frozen=True, eq=False)
@@ -157,7 +161,8 @@ def views_digest(tracks):
     for v in _view_order(tracks):
         d = tracks[v].data
         h.update(v.encode())
-        for c in TRACK_COLUMNS + ((_MANUAL,) if _MANUAL in d else ()):
+        for c in (TRACK_COLUMNS + ((_MANUAL,) if _MANUAL in d else ())
+                  + tuple(c for c in _CAMERA if c in d)):
             dtype = {"frame": np.int64, "flags": np.int32, _MANUAL: np.uint8}.get(c, np.float64)
             h.update(c.encode())
             h.update(np.ascontiguousarray(d[c].to_numpy(dtype=dtype)).tobytes())
@@ -223,6 +228,10 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
                 if _MANUAL in d:
                     # points placed by hand (flags 0): only a view that has them
                     _dataset(g, _MANUAL, d[_MANUAL].to_numpy(dtype=np.uint8))
+                for c in _CAMERA:
+                    if c in d:
+                        # a shaking camera's shift (a steadied view only)
+                        _dataset(g, c, d[c].to_numpy(dtype=np.float64))
                 g.attrs["release_frame"] = -1 if tr.release_frame is None else int(
                     tr.release_frame)
                 g.attrs["release_t_s"] = _num(tr.release_t_s)
@@ -320,6 +329,9 @@ def read_tracks(path):
                 cols[c] = g[c][()]
             if _MANUAL in g:
                 cols[_MANUAL] = g[_MANUAL][()].astype(bool)
+            for c in _CAMERA:
+                if c in g:
+                    cols[c] = g[c][()]
             n = {c: len(a) for c, a in cols.items()}
             if len(set(n.values())) != 1:
                 raise TrackError(f"{path}: /{v} datasets differ in length: {n}")
@@ -407,7 +419,9 @@ def tracks_table(tracks, *, calibrated=False):
         One row per view and frame: ``view``, ``frame``, ``t_s``, ``u_px``, ``v_px``,
         ``flags``, the other columns that tracks.h5 keeps for a view (``area_px``,
         ``angle_rad``, ``length_px``), ``manual`` (1: a point placed by hand; only
-        when a view has such points), and ``flag_names`` (the set bits' names in
+        when a view has such points), ``camera_du_px``, ``camera_dv_px`` (a steadied
+        view's camera shift; only when a view has one, NaN in the others), and
+        ``flag_names`` (the set bits' names in
         upper case, in bit order, joined by ``|``, e.g. ``MERGED|PRE_RELEASE``; empty
         when unflagged).
 
@@ -423,7 +437,8 @@ def tracks_table(tracks, *, calibrated=False):
     manual = any(_MANUAL in tracks[v].data for v in tracks)
     columns = list(_TRACKS_CSV_FIRST) + [c for c in TRACK_COLUMNS
                                          if c not in _TRACKS_CSV_FIRST]
-    columns += [_MANUAL] * manual + ["flag_names"]
+    camera = any(_CAMERA[0] in tracks[v].data for v in tracks)
+    columns += [_MANUAL] * manual + list(_CAMERA) * camera + ["flag_names"]
     parts = []
     for v in _view_order(tracks):
         d = tracks[v].data
@@ -435,6 +450,9 @@ def tracks_table(tracks, *, calibrated=False):
         if manual:
             part[_MANUAL] = (d[_MANUAL].to_numpy(dtype=np.uint8) if _MANUAL in d
                              else np.zeros(len(d), dtype=np.uint8))
+        for c in _CAMERA if camera else ():
+            part[c] = (d[c].to_numpy(dtype=np.float64) if c in d
+                       else np.full(len(d), np.nan))
         part["flag_names"] = _flag_names(part["flags"])
         parts.append(pd.DataFrame(part, columns=columns))
     if not parts:

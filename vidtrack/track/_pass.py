@@ -648,10 +648,16 @@ class Pass:
             self.last_level = self.fol.level
         if self.steady is not None:
             self.notes.append(self.steady.summary())
+            shifts = np.full((n, 2), np.nan)
+            for i, sh in self.steady.shifts.items():
+                if 0 <= i < n:
+                    shifts[i] = sh
         times = self.times
         columns = {"frame": fnums, "t_s": times, "u_px": u, "v_px": v, "area_px": area,
                    "angle_rad": self.angle, "length_px": length,
                    "flags": flags.astype(np.int32)}
+        if self.steady is not None:
+            columns["camera_du_px"], columns["camera_dv_px"] = shifts[:, 0], shifts[:, 1]
         if rel is None:
             rel_t = None
         elif rel_tau is None:
