@@ -202,3 +202,21 @@ def test_tracks_keep_the_camera_shift_and_the_footage_as_shot_is_drawn_with_it(s
         k = int(np.flatnonzero(d["frame"].to_numpy() == c.frame)[0])
         want = (d["u_px"][k] + d["camera_du_px"][k], d["v_px"][k] + d["camera_dv_px"][k])
         assert c.measured_px == pytest.approx(want, abs=1e-9)
+
+
+def test_a_scene_moving_as_a_whole_is_not_a_shake():
+    # a pan (or the ground under a travelling machine): the whole sample run drifting
+    # 0.1 px a frame, 30 px over the warm-up's frames, is not steadied, and said
+    import cv2
+
+    with open_source(REPO / "datasets" / "run42" / "front.avi", fps=1200) as src:
+        idx = sample_indices(300, 25)
+        samples = []
+        for i in idx:
+            f = np.asarray(src[int(i)])
+            w = np.array([[1.0, 0.0, 0.1 * i], [0.0, 1.0, 0.0]])
+            samples.append(cv2.warpAffine(f, w, f.shape[::-1], flags=cv2.INTER_CUBIC,
+                                          borderMode=cv2.BORDER_REFLECT_101))
+    st, note = steady.Steadier.look(samples, idx)
+    assert st is None
+    assert note.startswith("camera: the scene moves as a whole"), note

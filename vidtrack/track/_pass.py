@@ -203,7 +203,7 @@ class Pass:
             if steady is None:
                 steady, note = Steadier.look([buffer[i] for i in sidx], sidx,
                                              background.image)
-                if steady is not None:
+                if steady is not None or note.startswith("camera: the scene moves"):
                     self.notes.append(note)
             if steady is not None:
                 # the frames moved back onto one place, and their background again

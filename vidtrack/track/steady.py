@@ -38,6 +38,10 @@ import numpy as np
 #: on either side of the threshold and their tracks differed from the clip's by up to
 #: 2.9 px; at 0.1 (an earlier alignment) a bear clip kept 37 of 70 frames against 56.
 SHAKE_PX = 0.5
+#: A camera whose sampled frames lie farther apart than this (px, from their median)
+#: is not shaking but panning, or the scene moving as a whole (the ground under a
+#: travelling machine): not steadied, and the notes say so.
+SHAKE_MAX_PX = 6.0
 #: Corners followed (at most), and the fewest that must agree for a frame's shift.
 CORNERS, AGREE_MIN = 400, 12
 #: The cells (about square) the corners are spread over (each votes once), and how strong a
@@ -191,6 +195,11 @@ class Steadier:
         if rms <= SHAKE_PX:
             return None, (f"camera: steady ({len(sh)} of the sampled frames lie within "
                           f"{rms:.2g} px RMS of each other)")
+        far = float(np.abs(sh - np.median(sh, axis=0)).max())
+        if far > SHAKE_MAX_PX:
+            return None, (f"camera: the scene moves as a whole by up to {far:.3g} px over "
+                          f"the sampled frames, more than a shake ({SHAKE_MAX_PX:g} px): a "
+                          f"pan, a zoom or a moving ground is not steadied")
         corners = _Corners(ref, lo, hi)
         got = [corners.shift(s) for s in samples]
         sh = np.array([g for g in got if g is not None])
