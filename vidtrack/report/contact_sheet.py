@@ -152,13 +152,14 @@ def contact_crops(sources, tracks, paths, *, bit_depths=None, flight=FLIGHT_CROP
     crops, notes = [], []
     shown = {n: d for n, d in tracks.items() if n in sources}
     polylines = {n: p.polyline() for n, p in paths.items()}
+    # (a steadied view's points and path moved as the camera moved the footage)
+    shifts = {n: camera_shifts(d, len(np.asarray(d["frame"]))) for n, d in shown.items()}
     for name, k, why in pick_frames(shown, paths, flight=flight):
         d = shown[name]
         src = sources[name]
         frame_no = int(np.asarray(d["frame"])[k])
         t_s = float(np.asarray(d["t_s"], float)[k])
-        # (a steadied view's points and path moved as the camera moved the footage)
-        sh = camera_shifts(d, len(np.asarray(d["frame"])))[k]
+        sh = shifts[name][k]
         uv = (float(np.asarray(d["u_px"], float)[k]) + sh[0],
               float(np.asarray(d["v_px"], float)[k]) + sh[1])
         flags = int(np.asarray(d["flags"])[k])

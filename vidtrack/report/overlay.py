@@ -106,10 +106,11 @@ def camera_shifts(track, n):
     did not shake, or a frame's shift is unknown): tracks.h5 keeps a steadied view's
     points and fitted path where a still camera sees them, and the footage as shot shows
     them moved by it."""
-    if "camera_du_px" not in track or "camera_dv_px" not in track:
+    from vidtrack.track.tracker import CAMERA_COLUMNS
+
+    if not all(c in track for c in CAMERA_COLUMNS):
         return np.zeros((n, 2))
-    sh = np.column_stack([np.asarray(track["camera_du_px"], dtype=np.float64),
-                          np.asarray(track["camera_dv_px"], dtype=np.float64)])
+    sh = np.column_stack([np.asarray(track[c], dtype=np.float64) for c in CAMERA_COLUMNS])
     return np.where(np.isfinite(sh), sh, 0.0)
 
 

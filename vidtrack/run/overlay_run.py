@@ -115,6 +115,7 @@ def overlay_run(run_dir, *, views=None, every=1, scale=1.0, frame_range=None, qu
     from vidtrack.run._workers import source_of
     from vidtrack.run.preflight import about, prepare_run
     from vidtrack.run.tracks_file import read_tracks
+    from vidtrack.track.tracker import CAMERA_COLUMNS
 
     plan = prepare_run(run_dir)
     scene = plan.scene
@@ -167,8 +168,7 @@ def overlay_run(run_dir, *, views=None, every=1, scale=1.0, frame_range=None, qu
                     data = tf.tracks[n].data
                     r = write_overlay(src, out, n, {c: data[c].to_numpy() for c in
                                                     ("frame", "u_px", "v_px", "flags",
-                                                     "camera_du_px", "camera_dv_px")
-                                                    if c in data},
+                                                     *CAMERA_COLUMNS) if c in data},
                                       paths.get(n), every=every, scale=scale, quiet=quiet)
                 if r.note:
                     notes.append(f"{label}, view {n}: {r.note}")

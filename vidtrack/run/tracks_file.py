@@ -64,8 +64,6 @@ _TRACKS_CSV_FIRST = ("view", "frame", "t_s", "u_px", "v_px", "flags")
 #: A view's boolean column (dataset, in tracks.h5 as 0/1) of points placed by hand; only
 #: in a view that has some (vidtrack.track.corrections).
 _MANUAL = "manual"
-#: A steadied view's camera shift (vidtrack.track.tracker.CAMERA_COLUMNS)
-_CAMERA = ("camera_du_px", "camera_dv_px")
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,14 +153,14 @@ def views_digest(tracks):
     a view edited by hand from an edit elsewhere in the file."""
     import hashlib
 
-    from vidtrack.track.tracker import TRACK_COLUMNS
+    from vidtrack.track.tracker import CAMERA_COLUMNS, TRACK_COLUMNS
 
     h = hashlib.sha256()
     for v in _view_order(tracks):
         d = tracks[v].data
         h.update(v.encode())
         for c in (TRACK_COLUMNS + ((_MANUAL,) if _MANUAL in d else ())
-                  + tuple(c for c in _CAMERA if c in d)):
+                  + tuple(c for c in CAMERA_COLUMNS if c in d)):
             dtype = {"frame": np.int64, "flags": np.int32, _MANUAL: np.uint8}.get(c, np.float64)
             h.update(c.encode())
             h.update(np.ascontiguousarray(d[c].to_numpy(dtype=dtype)).tobytes())
@@ -200,7 +198,7 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
     import h5py
 
     from vidtrack import __version__
-    from vidtrack.track.tracker import FLAGS
+    from vidtrack.track.tracker import CAMERA_COLUMNS, FLAGS
 
     path = Path(path)
     calibrated = _is_calibrated(world)
@@ -228,7 +226,7 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
                 if _MANUAL in d:
                     # points placed by hand (flags 0): only a view that has them
                     _dataset(g, _MANUAL, d[_MANUAL].to_numpy(dtype=np.uint8))
-                for c in _CAMERA:
+                for c in CAMERA_COLUMNS:
                     if c in d:
                         # a shaking camera's shift (a steadied view only)
                         _dataset(g, c, d[c].to_numpy(dtype=np.float64))
@@ -302,7 +300,7 @@ def read_tracks(path):
     import h5py
 
     from vidtrack.world.orthogonal import WorldTrack
-    from vidtrack.track.tracker import TRACK_COLUMNS, Track
+    from vidtrack.track.tracker import CAMERA_COLUMNS, TRACK_COLUMNS, Track
 
     path = Path(path)
     if not path.is_file():
@@ -329,7 +327,7 @@ def read_tracks(path):
                 cols[c] = g[c][()]
             if _MANUAL in g:
                 cols[_MANUAL] = g[_MANUAL][()].astype(bool)
-            for c in _CAMERA:
+            for c in CAMERA_COLUMNS:
                 if c in g:
                     cols[c] = g[c][()]
             n = {c: len(a) for c, a in cols.items()}
@@ -431,14 +429,14 @@ def tracks_table(tracks, *, calibrated=False):
         An unknown view name, or a track without the columns of
         :data:`vidtrack.track.tracker.TRACK_COLUMNS`.
     """
-    from vidtrack.track.tracker import TRACK_COLUMNS
+    from vidtrack.track.tracker import CAMERA_COLUMNS, TRACK_COLUMNS
 
     _check_tracks(tracks, TRACKS_CSV, calibrated=calibrated)
     manual = any(_MANUAL in tracks[v].data for v in tracks)
     columns = list(_TRACKS_CSV_FIRST) + [c for c in TRACK_COLUMNS
                                          if c not in _TRACKS_CSV_FIRST]
-    camera = any(_CAMERA[0] in tracks[v].data for v in tracks)
-    columns += [_MANUAL] * manual + list(_CAMERA) * camera + ["flag_names"]
+    camera = any(CAMERA_COLUMNS[0] in tracks[v].data for v in tracks)
+    columns += [_MANUAL] * manual + list(CAMERA_COLUMNS) * camera + ["flag_names"]
     parts = []
     for v in _view_order(tracks):
         d = tracks[v].data
@@ -450,7 +448,7 @@ def tracks_table(tracks, *, calibrated=False):
         if manual:
             part[_MANUAL] = (d[_MANUAL].to_numpy(dtype=np.uint8) if _MANUAL in d
                              else np.zeros(len(d), dtype=np.uint8))
-        for c in _CAMERA if camera else ():
+        for c in CAMERA_COLUMNS if camera else ():
             part[c] = (d[c].to_numpy(dtype=np.float64) if c in d
                        else np.full(len(d), np.nan))
         part["flag_names"] = _flag_names(part["flags"])

@@ -26,7 +26,7 @@ from vidtrack.track._select import Acquirer, Tracklet
 from vidtrack.track._step import follow
 from vidtrack.track._target import ambiguity_message, target_blob, target_index
 from vidtrack.track.background import Background, estimate_background, sample_indices
-from vidtrack.track.steady import Steadier
+from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
 
 #: Memory the start-of-footage buffer for the background may take (bytes).
 _WARMUP_BYTES = 96 * 1024 * 1024
@@ -657,7 +657,7 @@ class Pass:
                    "angle_rad": self.angle, "length_px": length,
                    "flags": flags.astype(np.int32)}
         if self.steady is not None:
-            columns["camera_du_px"], columns["camera_dv_px"] = shifts[:, 0], shifts[:, 1]
+            columns.update(zip(CAMERA_COLUMNS, shifts.T))
         if rel is None:
             rel_t = None
         elif rel_tau is None:

@@ -30,6 +30,10 @@ import math
 import cv2
 import numpy as np
 
+#: The columns of a steadied view's track (:mod:`vidtrack.track.tracker`, tracks.h5): how
+#: far each frame's content lay from the steadied place, px (``u_px + camera_du_px`` is
+#: where the point is in the footage as shot).
+CAMERA_COLUMNS = ("camera_du_px", "camera_dv_px")
 #: Shake (RMS of the sampled frames' shifts from their mean, px) above which the footage
 #: is steadied. The look's own noise on steady footage is 0.01-0.04 px (synth runs, a
 #: badminton camera); the real clips of docs/tracker.md show smooth motions of 0.055 px

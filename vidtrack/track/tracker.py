@@ -81,6 +81,7 @@ from vidtrack.errors import TrackError
 from vidtrack.track._flags import (APPEARANCE, BLADE, BORDER, EXCLUDED, FLAGS, LOST, MERGED,
                                    OUTLIER, PRE_RELEASE, PREDICTED)
 from vidtrack.track._pass import Cancelled, Pass
+from vidtrack.track.steady import CAMERA_COLUMNS  # noqa: F401 (a track's optional columns)
 
 log = logging.getLogger(__name__)
 
@@ -93,10 +94,7 @@ __all__ = ["Track", "track", "track_parts", "FLAGS", "BORDER", "BLADE", "MERGED"
 
 #: Columns of :attr:`Track.data`, in order.
 TRACK_COLUMNS = ("frame", "t_s", "u_px", "v_px", "area_px", "angle_rad", "length_px", "flags")
-#: Columns a view's track has only where its camera shook and its frames were steadied
-#: (:mod:`vidtrack.track.steady`): how far each frame's content lay from the steadied
-#: place, px (``u_px + camera_du_px`` is where the point is in the footage as shot).
-CAMERA_COLUMNS = ("camera_du_px", "camera_dv_px")
+
 
 
 def _finite_or_none(value):
