@@ -49,3 +49,21 @@ def run_vidtrack(*args, cwd=None, timeout=600, env=None):
 def vidtrack_cli():
     """The real command line, run as a subprocess: ``vidtrack_cli("anova", "t.csv")``."""
     return run_vidtrack
+
+
+#: The issue's tolerances on k1..k4 (relative): 3 %, and 5 % on k4.
+K_TOLERANCES = (("k1", 0.03), ("k2", 0.03), ("k3", 0.03), ("k4", 0.05))
+
+
+def assert_k_within(record, truth_k):
+    """Every coefficient of a fit record (``vidtrack fit --json``) determined and within
+    :data:`K_TOLERANCES` of ``truth_k`` ({"k1": ..}); returns the coefficients."""
+    import pytest
+
+    out = {}
+    for k, tol in K_TOLERANCES:
+        c = record["coefficients"][k]
+        assert c["determined"], (k, c)
+        assert c["value"] == pytest.approx(truth_k[k], rel=tol), k
+        out[k] = c
+    return out

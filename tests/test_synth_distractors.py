@@ -22,6 +22,7 @@ import math
 import numpy as np
 import pytest
 
+from conftest import assert_k_within
 from vidtrack.footage import open_source
 from vidtrack.synth import SynthSpec, render_run
 
@@ -313,10 +314,7 @@ def test_fit_against_truth(fitted, name):
                     followed.append((kind, i))
         assert not bad, f"{view}: {len(bad)} unflagged frames > 0.5 px off: {bad[:10]}"
         assert not followed, f"{view}: nearer the distractor than the straw: {followed[:10]}"
-    for k, tol in (("k1", 0.03), ("k2", 0.03), ("k3", 0.03), ("k4", 0.05)):
-        c = record["coefficients"][k]
-        assert c["determined"], (k, c)
-        assert c["value"] == pytest.approx(truth["truth"]["k"][k], rel=tol), k
+    assert_k_within(record, truth["truth"]["k"])
 
 
 @pytest.fixture(scope="module")
@@ -396,10 +394,7 @@ def test_a_highlighted_straw_with_a_rider_across_it_fits_with_a_target(
     res = run_vidtrack("fit", out, "--json", "--no-report", "-q")
     assert res.returncode == 0, res.stderr
     record = json.loads(res.stdout)
-    for k, tol in (("k1", 0.03), ("k2", 0.03), ("k3", 0.03), ("k4", 0.05)):
-        c = record["coefficients"][k]
-        assert c["determined"], (k, c)
-        assert c["value"] == pytest.approx(truth["truth"]["k"][k], rel=tol), k
+    assert_k_within(record, truth["truth"]["k"])
     errs = {view: [math.hypot(u - truth["views"][view]["per_frame"]["u_coverage_px"][i],
                               v - truth["views"][view]["per_frame"]["v_coverage_px"][i])
                    for i, u, v in pts] for view, pts in _unflagged(out).items()}
@@ -474,7 +469,4 @@ def test_thin_straw_at_the_default_scale(fitted_thin, name):
                                     v - tab["v_coverage_px"][i]), 3)) for i, u, v in pts]
         bad = [b for b in bad if b[1] > 0.5]
         assert not bad, f"{view}: {len(bad)} unflagged frames > 0.5 px off: {bad[:10]}"
-    for k, tol in (("k1", 0.03), ("k2", 0.03), ("k3", 0.03), ("k4", 0.05)):
-        c = record["coefficients"][k]
-        assert c["determined"], (k, c)
-        assert c["value"] == pytest.approx(truth["truth"]["k"][k], rel=tol), k
+    assert_k_within(record, truth["truth"]["k"])
