@@ -23,7 +23,7 @@ from vidtrack.track._rods import OFF_AXIS_MAX, rod_fill, rodlike_run, thin_line_
 from vidtrack.track._search import search_blobs
 from vidtrack.track._segment import Segmenter
 from vidtrack.track._select import Acquirer, Tracklet
-from vidtrack.track._step import follow
+from vidtrack.track._step import HIDDEN_PX, follow
 from vidtrack.track._target import ambiguity_message, target_blob, target_index
 from vidtrack.track.background import Background, estimate_background, sample_indices
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
@@ -362,7 +362,10 @@ class Pass:
                 not f.compact and med_fill is not None and fill is not None
                 and fill < 0.8 * med_fill) or (
                     (not f.compact or f.rod) and b.off_axis > OFF_AXIS_MAX)
-            fl = self.store(b.index, b, MERGED if (b.merged or odd) else 0)
+            # (part of it may lie, unseen, over background of its own brightness)
+            hidden = f.compact and not f.rod and b.hidden > HIDDEN_PX
+            fl = self.store(b.index, b, (MERGED if (b.merged or odd) else 0)
+                            | (APPEARANCE if hidden else 0))
             self.solid[b.index] = f.compact
             self.seeded[b.index] = True
             if np.isfinite(b.level):

@@ -14,7 +14,7 @@ from vidtrack.track._coverage import measure
 from vidtrack.track._mixed import measure_mixed
 from vidtrack.track._segment import edge_stats, read_level, work_margin
 from vidtrack.track._shadow import attached_shadow
-from vidtrack.track._silhouette import measure_silhouette, trim_attached
+from vidtrack.track._silhouette import hidden_bound, measure_silhouette, trim_attached
 from vidtrack.track._select import on_body
 from vidtrack.track._touch import edge_width, other_behind
 
@@ -99,6 +99,7 @@ def search_blobs(seg, i, frame, gain, *, shape, min_area, blade=None, near=None,
                 if sil.area > 0:
                     b.silhouette = (sil.u, sil.v, sil.area, sil.angle, sil.length,
                                     sil.width)
+                    b.hidden = hidden_bound(work, sil)
                 b.level = lv
                 b.polarity = pol
                 b.index = i
@@ -157,6 +158,7 @@ def _wholes(seg, i, frame, r, gain, parts, *, shape, min_area):
         measure_mixed(work, b, separate=False)
         if not b.area > 0:
             continue
+        b.hidden = hidden_bound(work, b)
         b.polarity = 0
         b.index = i
         found.append(b)

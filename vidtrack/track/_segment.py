@@ -89,6 +89,7 @@ class Blob:
     edge_w_alone: float = np.nan  # the same without the edges of what touches it in the
     # other polarity (a shadow's own penumbra, not the straw's edge beside it)
     silhouette: tuple = None  # (u, v, area, angle, length, width) by its silhouette
+    hidden: float = 0.0       # how far part of it unseen could put its centre (px)
     off_axis: float = 0.0     # a rod's coverage share beyond its band (another across it)
     core: int = 0             # its fully covered pixels, read by one grey level
     # (width, length) of its strongest pixels (coverage at least half its 90th

@@ -15,6 +15,11 @@ from vidtrack.track._moments import from_moments
 from vidtrack.track._segment import K3, K5, READABLE, fill_holes
 from vidtrack.track._shadow import attached_shadow
 
+#: A pixel whose ``|level - background|`` is below this many detection thresholds may be
+#: missed where the object covers it (a pixel at 1.2 to 1.6 thresholds was, through
+#: noise and compression: :func:`hidden_shift`).
+BLIND = 1.5
+
 
 def trim_attached(work, *, reach_px, along=(0.0, 0.0)):
     """Drop detections not within ``reach_px`` of the object's fully covered core (None:
@@ -96,7 +101,7 @@ def trim_attached(work, *, reach_px, along=(0.0, 0.0)):
     return n_core, n_drop, uniform
 
 
-def measure_solid(work, blob):
+def measure_solid(work, blob, *, smear=None):
     """Centroid etc. of an object of one grey level, its edge read against its
     surroundings (in place; ``work.den`` from its level).
 
@@ -106,6 +111,10 @@ def measure_solid(work, blob):
     (2 to 5 px beyond the core) differ from theirs: a shadow falling beside the object
     darkens what shows between its edge and the shadow, which read against the static
     background would look like more of the object.
+
+    ``smear``: how far its edge may be smeared by its motion (px; its motion in a frame
+    at most): its detections farther than 2 px plus that from their outline are fully
+    covered too.
     """
     sel = work.sel.view(bool)
     readable = np.abs(work.den) > np.float32(READABLE) * work.t
@@ -135,6 +144,13 @@ def measure_solid(work, blob):
             break
         core = core2
     core_b = fill_holes(core) & ~work.others
+    if smear is not None:
+        # deep inside its detections it is fully covered, whatever its shading there (a
+        # highlight, and round it the glow that brings it to the background's level:
+        # read as partly covered, the centre moved away from it)
+        r = 2 + int(math.ceil(smear))
+        disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+        core_b |= cv2.erode(fill_holes(work.sel).view(np.uint8), disk).view(bool) & ~work.others
     near = cv2.dilate(core_b.view(np.uint8), ring_k).view(bool)
     ring = near & ~core_b & ~work.others & (sel | cv2.dilate(work.sel, K3).view(bool))
     d2 = work.d - offset
@@ -200,3 +216,105 @@ def _silhouette(work, blob, sel, ad, *, trimmed=None):
     c[edge] = np.minimum(ad[edge] / ref[edge], 1.0)
     c[inner] = 1.0
     return from_moments(blob, c, work.origin)
+
+
+def _interior(work, *, count=True):
+    """The object's silhouette (holes filled, less what was cut off) eroded by a pixel:
+    its pixel count, or (``count=False``) the mask."""
+    sil = fill_holes(work.sel)
+    if work.trimmed is not None:
+        sil &= ~work.trimmed
+    inner = cv2.erode(sil.view(np.uint8), K3).view(bool)
+    return int(np.count_nonzero(inner)) if count else inner
+
+
+def own_level(work):
+    """The object's grey level where its interior's pixels agree (an object of one grey
+    level, whatever the background does round it), else None (textured, two-toned: a
+    white cup with a dark opening, a ball with a highlight).
+
+    Its interior: its silhouette (holes filled, less what was cut off as not of it)
+    eroded by a pixel; at least 12 pixels, whose interquartile range is within 15 % of
+    their median contrast plus twice the noise (the criterion of :func:`trim_attached`).
+    """
+    inner = _interior(work, count=False)
+    if np.count_nonzero(inner) < 12:
+        return None
+    vals = work.f[inner]
+    contrast = float(np.median(np.abs(work.d[inner])))
+    q25, q50, q75 = np.percentile(vals, [25, 50, 75])
+    if q75 - q25 > 0.15 * contrast + 2.0 * float(np.median(work.t[inner])) / 5.0:
+        return None
+    return float(q50)
+
+
+def hidden_bound(work, blob, *, known=None, area=None):
+    """:func:`hidden_shift` of an object whose interior shows one grey level
+    (:func:`own_level`), or, where too little of it shows, of the level ``known`` (an
+    object known to be of one grey level); 0 for any other."""
+    if not blob.area > 0:
+        return 0.0
+    own = own_level(work)
+    if own is None and known is not None and _interior(work) < 12:
+        own = known
+    return 0.0 if own is None else hidden_shift(work, blob, level=own, area=area)
+
+
+def hidden_shift(work, blob, *, level, area=None):
+    """How far the centre of an object of one grey level ``level`` could be from where
+    its detected pixels put it, because part of it lies over background of its own
+    brightness (px).
+
+    Where ``|level - background|`` is below about the detection threshold (``BLIND``
+    times it) a fully covered pixel may not be detected: the object is cut off there,
+    unseen, and its centre measured towards what shows (a dark ball crossing a dark
+    patch of a textured wall: 1.2 px off on a ball 16 px across, its area 20 % short).
+    The blind pixels that touch its silhouette (connected to it through blind pixels)
+    within half its size of the measured centre (its size: its length, or the diameter
+    of its area or of ``area``, its clean frames', whichever is larger) are what could
+    be of it. The bound: the largest shift of the centre were those of them on one side
+    of it (in one of eight directions) of it. 0 where none touch it.
+    """
+    sel = work.sel.view(bool)
+    if not sel.any() or not blob.area > 0:
+        return 0.0
+    sil = fill_holes(work.sel)
+    if work.trimmed is not None:
+        sil &= ~work.trimmed
+    blind = np.abs(np.float32(level) - work.b) <= np.float32(BLIND) * work.t
+    blind &= ~sil & ~work.others
+    if work.trimmed is not None:
+        blind &= ~work.trimmed
+    if not blind.any():
+        return 0.0
+    ox, oy = work.origin
+    cu, cv = blob.u - ox, blob.v - oy
+    size = max(float(blob.length), 2.0 * math.sqrt(max(blob.area, area or 0.0) / math.pi))
+    reach = 0.5 * size
+    yy, xx = np.mgrid[0:blind.shape[0], 0:blind.shape[1]]
+    near = (xx - cu) ** 2 + (yy - cv) ** 2 <= reach * reach
+    blind &= near
+    if not blind.any():
+        return 0.0
+    # blind pixels reached from the silhouette through blind pixels
+    _, labels = cv2.connectedComponents(blind.view(np.uint8), connectivity=8)
+    rim = cv2.dilate(sil.view(np.uint8), K3).view(bool) & blind
+    touching = np.unique(labels[rim])
+    touching = touching[touching > 0]
+    if touching.size == 0:
+        return 0.0
+    hid = np.isin(labels, touching)
+    du = (xx[hid] - cu).astype(np.float64)
+    dv = (yy[hid] - cv).astype(np.float64)
+    # the worst case: of them, those on one side (eight directions), whose shift the
+    # ones on the other side would not cancel
+    worst = 0.0
+    for a in np.arange(8) * (np.pi / 4):
+        proj = du * math.cos(a) + dv * math.sin(a)
+        side = proj > 0
+        k = int(np.count_nonzero(side))
+        if k == 0:
+            continue
+        total = float(proj[side].sum())
+        worst = max(worst, total / (blob.area + k))
+    return worst

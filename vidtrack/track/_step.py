@@ -18,10 +18,16 @@ from vidtrack.track._rods import (FILL_MIN, FILL_SEPARATE, FILL_WIDTH_MIN, OFF_A
 from vidtrack.track._coverage import measure, shade_background
 from vidtrack.track._mixed import measure_mixed
 from vidtrack.track._segment import edge_stats, read_level, work_margin
-from vidtrack.track._silhouette import measure_silhouette, measure_solid, trim_attached
+from vidtrack.track._silhouette import (hidden_bound, measure_silhouette, measure_solid,
+                                        trim_attached)
 from vidtrack.track._thin import FAINTER
 from vidtrack.track._touch import (beside_thin, opposite_touching, other_behind, other_touching,
                                    shadow_beside)
+
+
+#: A frame whose object could be this far (px) from where its detected pixels put it,
+#: were the blind pixels touching it of it, is flagged (APPEARANCE).
+HIDDEN_PX = 0.3
 
 
 def follow(ps, i, frame, f):
@@ -243,13 +249,20 @@ class _Step:
                         0.3 * f.ref(f.cores, n_core):
                     fl |= APPEARANCE
                 if trim:
-                    measure_solid(work, b)
+                    measure_solid(work, b, smear=float(np.hypot(*vel)))
                 else:
                     measure_silhouette(work, b, shadow=ps.shadow)
             else:
                 measure_silhouette(work, b, shadow=ps.shadow)
         if not b.area > 0:
             return False
+        if f.compact and not f.rod and hidden_bound(
+                work, b, known=f.level if f.trims() else None,
+                area=f.ref(f.covs, None)) > HIDDEN_PX:
+            # an object of one grey level, part of it over background of its own
+            # brightness, may be cut off there unseen (one known to be of one grey level
+            # keeps it where too little of its interior shows to say)
+            fl |= APPEARANCE
         b.mask_area = mask_area
         if len(group) > 1:
             xs = [reg.stats[k][0] for k in group]

@@ -60,7 +60,9 @@ value   name             meaning
 32      PRE_RELEASE      before the detected release (still on the blade)
 64      OUTLIER          off the smooth path of its clean neighbours
 128     APPEARANCE       unlike the object's clean frames (part of it hidden, or two
-                         grey levels where it has one): not measured as the object
+                         grey levels where it has one), or part of it possibly unseen
+                         against background of its own brightness: not measured as
+                         the object
 256     EXCLUDED         in a range of the scene's ``exclude_frames``: never fitted (set
                          after tracking, :mod:`vidtrack.track.corrections`)
 ======  ===============  ===========================================================
