@@ -82,6 +82,7 @@ import numpy as np
 from vidtrack.errors import TrackError
 from vidtrack.track._flags import (APPEARANCE, BLADE, BORDER, EXCLUDED, FLAGS, LOST, MERGED,
                                    OUTLIER, PRE_RELEASE, PREDICTED)
+from vidtrack.track._ghost import differs_at, moved_over, still_run, tail_background
 from vidtrack.track._pass import Cancelled, Pass
 from vidtrack.track.steady import CAMERA_COLUMNS  # noqa: F401 (a track's optional columns)
 
@@ -320,6 +321,35 @@ def _travel(ps):
     return float(np.hypot(ps.u[idx[-1]] - ps.u[idx[0]], ps.v[idx[-1]] - ps.v[idx[0]])) / size
 
 
+def _without_ghost(source, ps, kw):
+    """The pass ``ps``, or the view tracked again against a background from the last part
+    of the footage where ``ps`` followed the ghost of an object that rested where its
+    background was taken (:mod:`vidtrack.track._ghost`)."""
+    run = still_run(ps)
+    if run is None:
+        return ps
+    first, last, u0, v0 = run
+    radius = max(2.0, float(np.sqrt(np.nanmedian(ps.area[first:last + 1]) / np.pi)))
+    tail = tail_background(source)
+    if tail is None or not differs_at(ps.background, tail, u0, v0, radius,
+                                      k_sigma=ps.k_sigma):
+        return ps
+    try:
+        again = Pass(source, background=tail, **kw).run()
+    except TrackError:
+        return ps
+    if not moved_over(again, first, last, radius):
+        return ps       # (at rest there: the object, not its ghost)
+    again.notes[:0] = [note for note in ps.notes if note.startswith("camera:")]
+    frames = tail.frames
+    again.notes.append(
+        f"background: what was followed stood still at ({u0:.0f}, {v0:.0f}) px in frames "
+        f"{first}..{last}, where the background of the first frames differs from that of "
+        f"the last: the ghost of an object at rest there while the background was taken. "
+        f"Tracked against a background from frames {frames[0]}..{frames[-1]} instead")
+    return again
+
+
 def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
                 max_gap=5, blade_region=None, centre_line_px=None, warmup_frames=None,
                 quiet=True, cancel=None, target=None):
@@ -349,6 +379,8 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             else:
                 ps.notes.append(f"{said}, which then holds it (seen against itself, it "
                                 f"would be off by a part of its size): not taken")
+    if background is None and ps.steady is None:
+        ps = _without_ghost(source, ps, kw)
     shadow = ps.attached_shadow()
     if shadow is not None:
         # a shadow attached to it all through: measured again, without it
