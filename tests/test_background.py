@@ -113,6 +113,12 @@ def test_sample_background_from_a_video_file(tmp_path):
     assert np.sqrt(np.mean((bg.image - scene) ** 2)) < 1.0
     assert bg.noise_sigma == pytest.approx(1.0, rel=0.25)
     assert bg.to_dict()["n_samples"] == 15
+    # from the last part only (the tracker's background without an object resting at
+    # the start): its frames from there to the end
+    with open_source(path, fps=1000) as src:
+        tail = sample_background(src, samples=9, first=24)
+    assert tail.frames[0] == 24 and tail.frames[-1] == 40 and tail.n_samples == 9
+    assert np.sqrt(np.mean((tail.image - scene) ** 2)) < 1.0
 
 
 def test_repr_is_short():

@@ -42,10 +42,14 @@ def _drop(*, seed, level, wall, contrast, radius, highlight=0.0, hold=HOLD):
     return frames, path
 
 
-def _track(tmp_path, frames):
+def _track(tmp_path, frames, truth):
+    """The track, each frame's distance to the truth (px), and which are unflagged."""
     path = write_avi(tmp_path / "drop.avi", frames)
     with open_source(path, fps=1000.0) as src:
-        return track(src, view="front")
+        tr = track(src, view="front")
+    d = tr.data
+    err = np.hypot(d["u_px"].to_numpy() - truth[:, 0], d["v_px"].to_numpy() - truth[:, 1])
+    return tr, err, tr.usable
 
 
 @pytest.mark.parametrize("case, min_usable", [
@@ -62,11 +66,8 @@ def _track(tmp_path, frames):
 def test_a_ball_over_patches_of_its_own_brightness_is_flagged_not_guessed(
         tmp_path, case, min_usable):
     frames, truth = _drop(**case)
-    tr = _track(tmp_path, frames)
-    d = tr.data
-    err = np.hypot(d["u_px"].to_numpy() - truth[:, 0], d["v_px"].to_numpy() - truth[:, 1])
-    ok = tr.usable
-    flagged = (d["flags"].to_numpy() & APPEARANCE) > 0
+    tr, err, ok = _track(tmp_path, frames, truth)
+    flagged = (tr.data["flags"].to_numpy() & APPEARANCE) > 0
     print(f"\n{case}: {ok.sum()} unflagged, largest error {err[ok].max():.2f} px; "
           f"{flagged.sum()} flagged APPEARANCE, of which {np.sum(flagged & (err > 0.5))} "
           f"more than 0.5 px off")
@@ -81,10 +82,7 @@ def test_a_ball_held_where_the_background_is_taken_and_then_camouflaged(tmp_path
     as not: every frame of the hold was 2 px off, its area a quarter short, unflagged
     (206 frames over 0.5 px in all, up to 3.7 px)."""
     frames, truth = _drop(seed=11, level=40.0, wall=70.0, contrast=20.0, radius=12.0)
-    tr = _track(tmp_path, frames)
-    d = tr.data
-    err = np.hypot(d["u_px"].to_numpy() - truth[:, 0], d["v_px"].to_numpy() - truth[:, 1])
-    ok = tr.usable
+    tr, err, ok = _track(tmp_path, frames, truth)
     assert not ok[:HOLD].any()
     assert ok.sum() >= 30
     # (one frame at 0.57 px: Limits in docs/tracker.md)
@@ -99,10 +97,7 @@ def test_a_dark_ball_with_a_highlight_is_measured_whole(tmp_path):
     outline (2 px plus its motion in a frame) it is now taken as fully covered."""
     frames, truth = _drop(seed=9, level=30.0, wall=60.0, contrast=15.0, radius=8.0,
                           highlight=150.0)
-    tr = _track(tmp_path, frames)
-    d = tr.data
-    err = np.hypot(d["u_px"].to_numpy() - truth[:, 0], d["v_px"].to_numpy() - truth[:, 1])
-    ok = tr.usable
+    tr, err, ok = _track(tmp_path, frames, truth)
     assert ok.sum() >= 250
     # measured: 4 frames at 0.53-0.68 px, where it falls more than a pixel a frame and the
     # interior taken as covered stops short of the highlight's glow
@@ -120,10 +115,7 @@ def test_the_ghost_of_a_ball_held_where_the_background_is_taken_is_not_followed(
     tracked again against the last frames' background, and the notes say so."""
     frames, truth = _drop(seed=1, level=40.0, wall=70.0, contrast=10.0, radius=8.0,
                           hold=170)
-    tr = _track(tmp_path, frames)
-    d = tr.data
-    err = np.hypot(d["u_px"].to_numpy() - truth[:, 0], d["v_px"].to_numpy() - truth[:, 1])
-    ok = tr.usable
+    tr, err, ok = _track(tmp_path, frames, truth)
     print(f"\nghost: {ok.sum()} unflagged, largest error {err[ok].max():.2f} px; {tr.notes}")
     assert any("ghost" in x for x in tr.notes), tr.notes
     assert ok.sum() >= 60                                 # 95 measured

@@ -19,7 +19,7 @@ Internal to the tracker.
 
 import numpy as np
 
-from vidtrack.track.background import estimate_background, sample_indices
+from vidtrack.track.background import sample_background
 
 #: A run of at least this many consecutive clean frames ...
 STILL_FRAMES = 20
@@ -67,13 +67,7 @@ def tail_background(source, *, samples=25):
     first = int(n * (1.0 - TAIL_SHARE))
     if n - first < samples:
         return None
-    idx = first + sample_indices(n - first, samples)
-    frames = [source[int(i)] for i in idx]
-    pairs = []
-    for i, f in zip(idx[::2], frames[::2]):
-        j = int(i) + 1 if i + 1 < n else int(i) - 1
-        pairs.append((f, source[j]))
-    return estimate_background(frames, pairs=pairs, frames=idx)
+    return sample_background(source, samples=samples, first=first)
 
 
 def differs_at(first, last, u, v, radius, *, k_sigma):

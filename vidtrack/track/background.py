@@ -416,8 +416,9 @@ def sample_indices(n_frames, samples):
     return np.unique(np.round(np.linspace(0, n_frames - 1, k)).astype(int))
 
 
-def sample_background(source, *, samples=25):
-    """Background of a frame source from frames spread over its whole length.
+def sample_background(source, *, samples=25, first=0):
+    """Background of a frame source from frames spread over its whole length (from frame
+    ``first`` on).
 
     Parameters
     ----------
@@ -425,6 +426,8 @@ def sample_background(source, *, samples=25):
         An open frame source (random access ``source[i]``).
     samples : int, optional
         Frames in the median (default 25).
+    first : int, optional
+        The first frame the samples may come from (default 0).
 
     Returns
     -------
@@ -446,7 +449,8 @@ def sample_background(source, *, samples=25):
     if n < 3:
         raise TrackError(f"{getattr(source, 'path', 'source')}: the background needs at least "
                          f"3 frames, the footage has {n}")
-    idx = sample_indices(n, samples)
+    first = int(np.clip(first, 0, n - 3))
+    idx = first + sample_indices(n - first, samples)
     frames = [source[int(i)] for i in idx]
     pairs = []
     for i, f in zip(idx[::2], frames[::2]):
