@@ -8,11 +8,14 @@ took the object while it was coming out of its ghost may stay with the ghost (st
 of about its size, where the prediction of a slow start says), and its track is then
 the ghost's place, tens of pixels from the object, unflagged.
 
-:func:`ghost_place` finds that case after a pass: a run of clean frames in which the
-followed thing does not move, at a place where the background from the last part of
-the footage (:func:`tail_background`) differs from the first part's. The tracker then
-tracks the view again against the last part's background
-(:func:`vidtrack.track.tracker.track_parts`).
+After a pass whose object started at rest or nearly (:func:`slow_start`) or stood
+still for a while (:func:`still_run`), the background from the last part of the
+footage (:func:`tail_background`) is compared with the first part's
+(:func:`changed`); where the object lay over places where they differ, the view is
+tracked again against the last part's, and that pass is taken where what the first
+followed stood still there while the object moved in the second, or where the two
+part and the second's object lies less over those places (:func:`tail_wins`)
+(:func:`vidtrack.track.tracker.track_parts`). A thrown object pays nothing for it.
 
 Internal to the tracker.
 """
@@ -60,6 +63,17 @@ def still_run(ps):
     return k, m, float(np.median(ps.u[k:m + 1])), float(np.median(ps.v[k:m + 1]))
 
 
+def slow_start(ps, *, count=10):
+    """Whether the object of pass ``ps`` went less than its radius (and 2 px) over its
+    first ``count`` clean frames: it started at rest or nearly (or it is a ghost, or a
+    ghost with the object), where a ghost can be; a thrown object cannot."""
+    idx = np.flatnonzero(ps.clean & np.isfinite(ps.u))[:count]
+    if idx.size < count:
+        return False
+    r = max(2.0, float(np.sqrt(np.nanmedian(ps.area[idx]) / np.pi)))
+    return float(np.hypot(ps.u[idx[-1]] - ps.u[idx[0]], ps.v[idx[-1]] - ps.v[idx[0]])) < r
+
+
 def tail_background(source, *, samples=25):
     """Background of the last ``TAIL_SHARE`` of ``source``'s frames (random access);
     None where that part is shorter than ``samples``."""
@@ -73,19 +87,7 @@ def tail_background(source, *, samples=25):
 def differs_at(first, last, u, v, radius, *, k_sigma):
     """Whether the two backgrounds differ over most of the disc of ``radius`` (px) about
     ``(u, v)``: by more than the detection threshold of the first there."""
-    rows, cols = first.shape
-    r = int(np.ceil(radius))
-    x0, x1 = max(0, int(u) - r), min(cols, int(u) + r + 2)
-    y0, y1 = max(0, int(v) - r), min(rows, int(v) + r + 2)
-    if x1 <= x0 or y1 <= y0:
-        return False
-    yy, xx = np.mgrid[y0:y1, x0:x1]
-    disc = (xx - u) ** 2 + (yy - v) ** 2 <= radius * radius
-    if not disc.any():
-        return False
-    diff = np.abs(first.image[y0:y1, x0:x1] - last.image[y0:y1, x0:x1])
-    thr = first.threshold(k=k_sigma)[y0:y1, x0:x1]
-    return float(np.mean(diff[disc] > thr[disc])) >= 0.5
+    return disc_share(changed(first, last, k_sigma=k_sigma), u, v, radius) >= 0.5
 
 
 def moved_over(ps, first, last, radius):
@@ -97,3 +99,55 @@ def moved_over(ps, first, last, radius):
         return False
     return float(np.hypot(ps.u[idx[-1]] - ps.u[idx[0]], ps.v[idx[-1]] - ps.v[idx[0]])) \
         > max(radius, 3.0 * STILL_PX)
+
+
+def changed(first, last, *, k_sigma):
+    """Where the two backgrounds differ by more than the first's detection threshold
+    (bool image): what rested in view over the frames of one and not the other."""
+    return np.abs(first.image - last.image) > first.threshold(k=k_sigma)
+
+
+def disc_share(mask, u, v, radius):
+    """The share of the disc of ``radius`` about ``(u, v)`` that ``mask`` covers."""
+    rows, cols = mask.shape
+    r = int(np.ceil(radius))
+    x0, x1 = max(0, int(u) - r), min(cols, int(u) + r + 2)
+    y0, y1 = max(0, int(v) - r), min(rows, int(v) + r + 2)
+    if x1 <= x0 or y1 <= y0:
+        return 0.0
+    yy, xx = np.mgrid[y0:y1, x0:x1]
+    disc = (xx - u) ** 2 + (yy - v) ** 2 <= radius * radius
+    return float(mask[y0:y1, x0:x1][disc].mean()) if disc.any() else 0.0
+
+
+def radii(ps):
+    """Per frame, the radius of the disc of the pass's object's area (px, at least 2)."""
+    return np.fmax(2.0, np.sqrt(np.where(np.isfinite(ps.area), ps.area, 0.0) / np.pi))
+
+
+def overlaps(ps, mask, *, share=0.2):
+    """Whether the object of pass ``ps`` lies, in any clean frame, with at least ``share``
+    of its disc where ``mask`` is set."""
+    r = radii(ps)
+    for i in np.flatnonzero(ps.clean & np.isfinite(ps.u)):
+        if disc_share(mask, ps.u[i], ps.v[i], r[i]) >= share:
+            return True
+    return False
+
+
+def tail_wins(first, last, mask):
+    """Whether, where the passes ``first`` (against the first frames' background) and
+    ``last`` (the last frames') both have clean frames and put the object apart (by half
+    its radius and 2 px), the last's object lies less where the backgrounds differ
+    (``mask``) in most of those frames, and in at least 3: its measurement does not
+    turn on which background holds what rested there, the first's does."""
+    both = np.flatnonzero(first.clean & last.clean & np.isfinite(first.u)
+                          & np.isfinite(last.u))
+    r1, r2 = radii(first), radii(last)
+    votes = []
+    for i in both:
+        if np.hypot(first.u[i] - last.u[i], first.v[i] - last.v[i]) <= max(2.0, 0.5 * r1[i]):
+            continue
+        votes.append(disc_share(mask, last.u[i], last.v[i], r2[i])
+                     < disc_share(mask, first.u[i], first.v[i], r1[i]))
+    return len(votes) >= 3 and sum(votes) > 0.5 * len(votes)

@@ -82,7 +82,8 @@ import numpy as np
 from vidtrack.errors import TrackError
 from vidtrack.track._flags import (APPEARANCE, BLADE, BORDER, EXCLUDED, FLAGS, LOST, MERGED,
                                    OUTLIER, PRE_RELEASE, PREDICTED)
-from vidtrack.track._ghost import differs_at, moved_over, still_run, tail_background
+from vidtrack.track._ghost import (changed, disc_share, moved_over, overlaps, slow_start,
+                                   still_run, tail_background, tail_wins)
 from vidtrack.track._pass import Cancelled, Pass
 from vidtrack.track.steady import CAMERA_COLUMNS  # noqa: F401 (a track's optional columns)
 
@@ -324,29 +325,41 @@ def _travel(ps):
 def _without_ghost(source, ps, kw):
     """The pass ``ps``, or the view tracked again against a background from the last part
     of the footage where ``ps`` followed the ghost of an object that rested where its
-    background was taken (:mod:`vidtrack.track._ghost`)."""
+    background was taken, alone or with the object (:mod:`vidtrack.track._ghost`)."""
     run = still_run(ps)
-    if run is None:
-        return ps
-    first, last, u0, v0 = run
-    radius = max(2.0, float(np.sqrt(np.nanmedian(ps.area[first:last + 1]) / np.pi)))
+    if run is None and not slow_start(ps):
+        return ps       # (thrown: no ghost to follow)
     tail = tail_background(source)
-    if tail is None or not differs_at(ps.background, tail, u0, v0, radius,
-                                      k_sigma=ps.k_sigma):
+    if tail is None:
+        return ps
+    mask = changed(ps.background, tail, k_sigma=ps.k_sigma)
+    if not mask.any() or not overlaps(ps, mask):
         return ps
     try:
         again = Pass(source, background=tail, **kw).run()
     except TrackError:
         return ps
-    if not moved_over(again, first, last, radius):
-        return ps       # (at rest there: the object, not its ghost)
+    if run is not None:
+        first, last, u0, v0 = run
+        radius = max(2.0, float(np.sqrt(np.nanmedian(ps.area[first:last + 1]) / np.pi)))
+        if disc_share(mask, u0, v0, radius) >= 0.5 and moved_over(again, first, last,
+                                                                   radius):
+            said = (f"what was followed stood still at ({u0:.0f}, {v0:.0f}) px in frames "
+                    f"{first}..{last}")
+        else:
+            run = None
+    if run is None:
+        if not tail_wins(ps, again, mask):
+            return ps
+        said = ("what was followed lay, where the two passes part, over places that "
+                "differ")
     again.notes[:0] = [note for note in ps.notes if note.startswith("camera:")]
     frames = tail.frames
     again.notes.append(
-        f"background: what was followed stood still at ({u0:.0f}, {v0:.0f}) px in frames "
-        f"{first}..{last}, where the background of the first frames differs from that of "
-        f"the last: the ghost of an object at rest there while the background was taken. "
-        f"Tracked against a background from frames {frames[0]}..{frames[-1]} instead")
+        f"background: {said}, where the background of the first frames differs from that "
+        f"of the last: the ghost of an object at rest there while the background was "
+        f"taken. Tracked against a background from frames {frames[0]}..{frames[-1]} "
+        f"instead")
     return again
 
 
