@@ -26,7 +26,7 @@ from vidtrack.track.background import sample_background
 
 #: A run of at least this many consecutive clean frames ...
 STILL_FRAMES = 20
-#: ... whose points stay within this distance (px) of their median is still.
+#: ... whose points stay within this distance (px) of the first is still.
 STILL_PX = 1.0
 #: The last part of the footage the second background is taken from (its share).
 TAIL_SHARE = 0.4
@@ -34,8 +34,8 @@ TAIL_SHARE = 0.4
 
 def still_run(ps):
     """``(first, last, u, v)`` of the longest run of consecutive clean frames of the pass
-    ``ps`` whose points stay within ``STILL_PX`` of their median, at least
-    ``STILL_FRAMES`` long; None where there is none."""
+    ``ps`` whose points stay within ``STILL_PX`` of its first, at least ``STILL_FRAMES``
+    long (``u, v``: their median); None where there is none."""
     ok = ps.clean & np.isfinite(ps.u) & np.isfinite(ps.v)
     best = None
     i, n = 0, ps.n
@@ -82,12 +82,6 @@ def tail_background(source, *, samples=25):
     if n - first < samples:
         return None
     return sample_background(source, samples=samples, first=first)
-
-
-def differs_at(first, last, u, v, radius, *, k_sigma):
-    """Whether the two backgrounds differ over most of the disc of ``radius`` (px) about
-    ``(u, v)``: by more than the detection threshold of the first there."""
-    return disc_share(changed(first, last, k_sigma=k_sigma), u, v, radius) >= 0.5
 
 
 def moved_over(ps, first, last, radius):

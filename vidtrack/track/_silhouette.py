@@ -273,7 +273,7 @@ def hidden_shift(work, blob, *, level, area=None):
     within half its size of the measured centre (its size: its length, or the diameter
     of its area or of ``area``, its clean frames', whichever is larger) are what could
     be of it. The bound: the largest shift of the centre were those of them on one side
-    of it (in one of eight directions) of it. 0 where none touch it.
+    of it (in one of eight directions) covered. 0 where none touch it.
     """
     sel = work.sel.view(bool)
     if not sel.any() or not blob.area > 0:
