@@ -63,6 +63,11 @@ def still_run(ps):
     return k, m, float(np.median(ps.u[k:m + 1])), float(np.median(ps.v[k:m + 1]))
 
 
+def disc_radius(areas):
+    """The radius (px, at least 2) of the disc of the median of ``areas``."""
+    return max(2.0, float(np.sqrt(np.nanmedian(areas) / np.pi)))
+
+
 def slow_start(ps, *, count=10):
     """Whether the object of pass ``ps`` went less than its radius (and 2 px) over its
     first ``count`` clean frames: it started at rest or nearly (or it is a ghost, or a
@@ -70,8 +75,8 @@ def slow_start(ps, *, count=10):
     idx = np.flatnonzero(ps.clean & np.isfinite(ps.u))[:count]
     if idx.size < count:
         return False
-    r = max(2.0, float(np.sqrt(np.nanmedian(ps.area[idx]) / np.pi)))
-    return float(np.hypot(ps.u[idx[-1]] - ps.u[idx[0]], ps.v[idx[-1]] - ps.v[idx[0]])) < r
+    return float(np.hypot(ps.u[idx[-1]] - ps.u[idx[0]], ps.v[idx[-1]] - ps.v[idx[0]])) \
+        < disc_radius(ps.area[idx])
 
 
 def tail_background(source, *, samples=25):

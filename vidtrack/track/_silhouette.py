@@ -218,26 +218,24 @@ def _silhouette(work, blob, sel, ad, *, trimmed=None):
     return from_moments(blob, c, work.origin)
 
 
-def _interior(work, *, count=True):
-    """The object's silhouette (holes filled, less what was cut off) eroded by a pixel:
-    its pixel count, or (``count=False``) the mask."""
+def _outline(work):
+    """The object's silhouette: its detections with holes filled, less what was cut off
+    as not of it (bool)."""
     sil = fill_holes(work.sel)
     if work.trimmed is not None:
         sil &= ~work.trimmed
-    inner = cv2.erode(sil.view(np.uint8), K3).view(bool)
-    return int(np.count_nonzero(inner)) if count else inner
+    return sil
 
 
-def own_level(work):
+def own_level(work, inner):
     """The object's grey level where its interior's pixels agree (an object of one grey
     level, whatever the background does round it), else None (textured, two-toned: a
     white cup with a dark opening, a ball with a highlight).
 
-    Its interior: its silhouette (holes filled, less what was cut off as not of it)
-    eroded by a pixel; at least 12 pixels, whose interquartile range is within 15 % of
-    their median contrast plus twice the noise (the criterion of :func:`trim_attached`).
+    ``inner``: its interior, its silhouette eroded by a pixel; at least 12 pixels, whose
+    interquartile range is within 15 % of their median contrast plus twice the noise
+    (the criterion of :func:`trim_attached`).
     """
-    inner = _interior(work, count=False)
     if np.count_nonzero(inner) < 12:
         return None
     vals = work.f[inner]
@@ -252,15 +250,17 @@ def hidden_bound(work, blob, *, known=None, area=None):
     """:func:`hidden_shift` of an object whose interior shows one grey level
     (:func:`own_level`), or, where too little of it shows, of the level ``known`` (an
     object known to be of one grey level); 0 for any other."""
-    if not blob.area > 0:
+    if not blob.area > 0 or not work.sel.any():
         return 0.0
-    own = own_level(work)
-    if own is None and known is not None and _interior(work) < 12:
+    sil = _outline(work)
+    inner = cv2.erode(sil.view(np.uint8), K3).view(bool)
+    own = own_level(work, inner)
+    if own is None and known is not None and np.count_nonzero(inner) < 12:
         own = known
-    return 0.0 if own is None else hidden_shift(work, blob, level=own, area=area)
+    return 0.0 if own is None else hidden_shift(work, blob, level=own, area=area, sil=sil)
 
 
-def hidden_shift(work, blob, *, level, area=None):
+def hidden_shift(work, blob, *, level, area=None, sil=None):
     """How far the centre of an object of one grey level ``level`` could be from where
     its detected pixels put it, because part of it lies over background of its own
     brightness (px).
@@ -273,14 +273,13 @@ def hidden_shift(work, blob, *, level, area=None):
     within half its size of the measured centre (its size: its length, or the diameter
     of its area or of ``area``, its clean frames', whichever is larger) are what could
     be of it. The bound: the largest shift of the centre were those of them on one side
-    of it (in one of eight directions) covered. 0 where none touch it.
+    of it (in one of eight directions) covered. 0 where none touch it. ``sil``: its
+    silhouette, where the caller has it.
     """
-    sel = work.sel.view(bool)
-    if not sel.any() or not blob.area > 0:
+    if not work.sel.any() or not blob.area > 0:
         return 0.0
-    sil = fill_holes(work.sel)
-    if work.trimmed is not None:
-        sil &= ~work.trimmed
+    if sil is None:
+        sil = _outline(work)
     blind = np.abs(np.float32(level) - work.b) <= np.float32(BLIND) * work.t
     blind &= ~sil & ~work.others
     if work.trimmed is not None:

@@ -82,8 +82,8 @@ import numpy as np
 from vidtrack.errors import TrackError
 from vidtrack.track._flags import (APPEARANCE, BLADE, BORDER, EXCLUDED, FLAGS, LOST, MERGED,
                                    OUTLIER, PRE_RELEASE, PREDICTED)
-from vidtrack.track._ghost import (changed, disc_share, moved_over, overlaps, slow_start,
-                                   still_run, tail_background, tail_wins)
+from vidtrack.track._ghost import (changed, disc_radius, disc_share, moved_over, overlaps,
+                                   slow_start, still_run, tail_background, tail_wins)
 from vidtrack.track._pass import Cancelled, Pass
 from vidtrack.track.steady import CAMERA_COLUMNS  # noqa: F401 (a track's optional columns)
 
@@ -341,7 +341,7 @@ def _without_ghost(source, ps, kw):
         return ps
     if run is not None:
         first, last, u0, v0 = run
-        radius = max(2.0, float(np.sqrt(np.nanmedian(ps.area[first:last + 1]) / np.pi)))
+        radius = disc_radius(ps.area[first:last + 1])
         if disc_share(mask, u0, v0, radius) >= 0.5 and moved_over(again, first, last,
                                                                    radius):
             said = (f"what was followed stood still at ({u0:.0f}, {v0:.0f}) px in frames "
