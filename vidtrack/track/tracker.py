@@ -82,8 +82,9 @@ import numpy as np
 from vidtrack.errors import TrackError
 from vidtrack.track._flags import (APPEARANCE, BLADE, BORDER, EXCLUDED, FLAGS, LOST, MERGED,
                                    OUTLIER, PRE_RELEASE, PREDICTED)
-from vidtrack.track._ghost import (changed, disc_radius, disc_share, moved_over, overlaps,
-                                   slow_start, still_run, tail_background, tail_wins)
+from vidtrack.track._ghost import (HELD_SHARE, changed, disc_radius, disc_share, held,
+                                   moved_over, overlaps, slow_start, still_run,
+                                   tail_background, tail_wins)
 from vidtrack.track._pass import Cancelled, Pass
 from vidtrack.track.steady import CAMERA_COLUMNS  # noqa: F401 (a track's optional columns)
 
@@ -322,6 +323,26 @@ def _travel(ps):
     return float(np.hypot(ps.u[idx[-1]] - ps.u[idx[0]], ps.v[idx[-1]] - ps.v[idx[0]])) / size
 
 
+def _on_held(ps, slow):
+    """Clean frames of the pass ``ps`` whose point lies within its size (the diameter of
+    its larger frames) of the slow object the pass ``slow`` followed (where it was then,
+    or at its nearest frame): the slow object held by the background, seen against
+    itself (bool per frame)."""
+    seen = np.flatnonzero(np.isfinite(slow.u))
+    on = np.zeros(ps.n, bool)
+    if seen.size == 0 or not np.isfinite(slow.area).any():
+        return on
+    # (each pass sees a part of it, on either side of its centre: two parts of one disc
+    # lie within its diameter of each other; its largest frames show most of it)
+    size = 2.0 * float(np.sqrt(np.nanpercentile(slow.area, 90) / np.pi))
+    idx = np.flatnonzero(ps.clean & np.isfinite(ps.u))
+    near = seen[np.clip(np.searchsorted(seen, idx), 0, seen.size - 1)]
+    before = seen[np.clip(np.searchsorted(seen, idx) - 1, 0, seen.size - 1)]
+    near = np.where(np.abs(before - idx) < np.abs(near - idx), before, near)
+    on[idx] = np.hypot(ps.u[idx] - slow.u[near], ps.v[idx] - slow.v[near]) <= size
+    return on
+
+
 def _without_ghost(source, ps, kw):
     """The pass ``ps``, or the view tracked again against a background from the last part
     of the footage where ``ps`` followed the ghost of an object that rested where its
@@ -390,8 +411,13 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 slow.notes.append(said)
                 ps = slow
             else:
+                on = _on_held(ps, slow)
+                also = (f"; {np.count_nonzero(on)} clean frames of the first search "
+                        f"are on it (flagged appearance)" if on.any() else "")
+                ps.flags[on] |= APPEARANCE
+                ps.clean[on] = False
                 ps.notes.append(f"{said}, which then holds it (seen against itself, it "
-                                f"would be off by a part of its size): not taken")
+                                f"would be off by a part of its size): not taken{also}")
     if background is None and ps.steady is None:
         ps = _without_ghost(source, ps, kw)
     shadow = ps.attached_shadow()
@@ -411,4 +437,12 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             again.notes[:0] = [note for note in ps.notes if note.startswith(_FIRST_NOTES)]
             again.notes.append(f"{said}: a second pass measured the object without it")
             ps = again
+    in_bg = held(ps)
+    if in_bg.any():
+        ps.flags[in_bg] |= APPEARANCE
+        ps.clean[in_bg] = False
+        ps.notes.append(f"background: it lay where it is in more than {100 * HELD_SHARE:g} % of "
+                        f"the frames the background was taken from in {np.count_nonzero(in_bg)}"
+                        f" clean frames: there the background holds it, and it is seen "
+                        f"against itself, off by a part of its size (flagged appearance)")
     return ps.parts()
