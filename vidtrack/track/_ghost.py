@@ -63,9 +63,10 @@ def still_run(ps):
     return k, m, float(np.median(ps.u[k:m + 1])), float(np.median(ps.v[k:m + 1]))
 
 
-def disc_radius(areas):
-    """The radius (px, at least 2) of the disc of the median of ``areas``."""
-    return max(2.0, float(np.sqrt(np.nanmedian(areas) / np.pi)))
+def disc_radius(areas, q=50):
+    """The radius (px, at least 2) of the disc of the ``q``-th percentile of ``areas``
+    (the median by default)."""
+    return max(2.0, float(np.sqrt(np.nanpercentile(areas, q) / np.pi)))
 
 
 def slow_start(ps, *, count=10):
@@ -172,7 +173,7 @@ def held(ps):
     seen = np.isfinite(ps.u) & np.isfinite(ps.v)
     if frames.size < 5 or not np.isfinite(ps.area).any():
         return out
-    radius = max(2.0, float(np.sqrt(np.nanpercentile(ps.area, 90) / np.pi)))
+    radius = disc_radius(ps.area, q=90)
     pos = []
     for j in frames:
         near = [k for k in (j, j - 1, j + 1, j - 2, j + 2) if 0 <= k < ps.n and seen[k]]

@@ -264,6 +264,12 @@ class Pass:
         self.clean[i] = fl == 0
         return fl
 
+    def flag(self, mask, bit):
+        """Set the flag ``bit`` on the frames ``mask`` (bool per frame): they are no
+        longer clean."""
+        self.flags[mask] |= bit
+        self.clean[mask] = False
+
     # ------------------------------------------------------------------ searching
 
     def lost_gate(self, t_new):

@@ -414,8 +414,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
                 on = _on_held(ps, slow)
                 also = (f"; {np.count_nonzero(on)} clean frames of the first search "
                         f"are on it (flagged appearance)" if on.any() else "")
-                ps.flags[on] |= APPEARANCE
-                ps.clean[on] = False
+                ps.flag(on, APPEARANCE)
                 ps.notes.append(f"{said}, which then holds it (seen against itself, it "
                                 f"would be off by a part of its size): not taken{also}")
     if background is None and ps.steady is None:
@@ -439,8 +438,7 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
             ps = again
     in_bg = held(ps)
     if in_bg.any():
-        ps.flags[in_bg] |= APPEARANCE
-        ps.clean[in_bg] = False
+        ps.flag(in_bg, APPEARANCE)
         ps.notes.append(f"background: it lay where it is in more than {100 * HELD_SHARE:g} % of "
                         f"the frames the background was taken from in {np.count_nonzero(in_bg)}"
                         f" clean frames: there the background holds it, and it is seen "
