@@ -496,3 +496,68 @@ def test_a_target_anywhere_in_the_bundled_run_gives_the_automatic_track(frame):
     assert np.max(np.abs(a["u_px"][both] - h["u_px"][both])) < 0.05
     truth_u = np.interp(h["frame"], per["frame"], per["u_px"])
     assert np.max(np.abs(h["u_px"][h["flags"] == 0] - truth_u[h["flags"] == 0])) < 0.5
+
+
+# --------------------------------------------------------------------- something in front
+POST = (100, 132)     # columns of a post standing before everything
+
+
+def _behind_a_post(emerges, n=110):
+    """A thin, light rod (1.5 px, level 180) flying across a textured wall, behind a post
+    that stands before everything (the background holds it). ``emerges``: "same", it
+    comes out on the other side; "other", it stays behind (caught) and a wide dark rod
+    (4 px, level 20) comes out instead, 5 px beside its path. Returns the frames, the
+    rod's true centre and whether it is whole in view."""
+    rng = np.random.default_rng(21)
+    bg = texture(SHAPE, rng=rng, mean=110.0, contrast=20.0)
+    t = np.arange(n, dtype=float)
+    path = np.column_stack([20.0 + 2.0 * t, 120.0 - 0.9 * t + 0.006 * t * t])
+    frames, whole = [], np.zeros(n, bool)
+    for i, (u, v) in enumerate(path):
+        ang = 0.3 + 0.01 * i
+        reach = 0.5 * (22.0 * abs(np.cos(ang)) + 1.5 * abs(np.sin(ang))) + 1.0
+        whole[i] = u + reach < POST[0] or u - reach > POST[1]
+        if u < POST[1] or emerges == "same":
+            cov = rod_coverage(SHAPE, u, v, 22.0, 1.5, ang)
+            img = compose(bg, cov, 180.0).astype(float)
+        else:
+            img = compose(bg, rod_coverage(SHAPE, u, v + 5.0, 22.0, 4.0, ang), 20.0)
+            img = img.astype(float)
+        img[:, POST[0]:POST[1]] = 60.0
+        frames.append(np.clip(np.rint(img + rng.normal(0, 1.5, SHAPE)), 0, 255)
+                      .astype(np.uint8))
+    return frames, path, whole
+
+
+def test_a_rod_going_behind_a_post_and_out_is_flagged_while_part_of_it_is_hidden(
+        tmp_path):
+    """Partly behind the post, the rod's centroid is its visible part's: it lags its
+    centre going in and leads it coming out, by half what is hidden. Such frames are
+    flagged (the rod shortened at one end, its centre off its path along its axis), and
+    the rod is found again on the other side. Before: 5 frames going in unflagged 0.8 to
+    5.9 px off; the lagging points bent the prediction and the rod was never found
+    again (66 frames lost). Measured now: 85 unflagged, 49 of them past the post, within
+    0.37 px."""
+    frames, path, whole = _behind_a_post("same")
+    tr = _track(tmp_path, frames)
+    err = _check(tr, path, min_usable=80)
+    after = path[:, 0] > POST[1] + 12
+    assert np.count_nonzero(tr.usable & after) >= 40
+    # every unflagged frame partly behind the post is measured right (the flag is not
+    # needed where under a tenth of a pixel is hidden)
+    assert np.all(err[tr.usable & ~whole] <= 0.5)
+
+
+def test_another_rod_where_a_lost_rod_could_be_is_not_taken(tmp_path):
+    """The thin light rod stays behind the post; a wide dark one comes out where it could
+    be. A rod found again after it was lost must look like it (its width and grey
+    level): this one is 1.6 times as wide, and is not taken; the notes say so. Without
+    that check (the rod above found again) it was taken: 48 frames unflagged, 5 px off
+    the rod followed. (Before the post rule above it was not taken either: the rod
+    followed was never found again.)"""
+    frames, path, whole = _behind_a_post("other")
+    tr = _track(tmp_path, frames)
+    after = path[:, 0] > POST[1]
+    _check(tr, path, min_usable=30)
+    assert not np.any(tr.usable & after)
+    assert any("another object, not taken" in x for x in tr.notes), tr.notes

@@ -13,6 +13,17 @@ from vidtrack.track._rods import rod_fill
 from vidtrack.track._select import Intruders, Predictor
 from vidtrack.track._thin import THIN_PX
 
+#: A rod found again where the rod that was lost could be is another object when the
+#: median width of its first frames differs from that of the lost rod's clean frames by
+#: more than this factor either way (widths under
+#: :data:`~vidtrack.track._thin.THIN_PX` taken as that: a rod 1.5 px wide and one 4 px,
+#: 1.6) ...
+LOOK_WIDTH = 1.5
+#: ... or its grey level from the lost rod's by more than this share of the lost rod's
+#: contrast to the background (the grey level of a rod of one level is its own wherever
+#: it is; the rider of a dark straw, 64 against 13 on a background near 120: 0.9).
+LOOK_LEVEL = 0.5
+
 
 class Follow:
     """The running state of the follower (reference size, grey level, errors)."""
@@ -39,6 +50,8 @@ class Follow:
         self.last_size = None
         self.smooth = True
         self.cut_at = -10 ** 9           # the last frame with something beyond its band
+        # the last frame that was clean, or of a run of them with one end hidden since
+        self.judged_at = -10 ** 9
         # an object of both polarities (segmented so), and one measured by its
         # silhouette (anything but a rod: the coverage by one grey level is a rod's)
         self.mixed = False
@@ -117,11 +130,29 @@ class Follow:
             self.last_size = (blob.mask_area, blob.length)
 
     @property
+    def length_jitter(self):
+        """Median change (px) of the length from one clean frame to the next (0 before
+        two are known)."""
+        ls = list(self.lengths)
+        return float(statistics.median(abs(b - a) for a, b in zip(ls, ls[1:]))) \
+            if len(ls) >= 2 else 0.0
+
+    @property
     def thin(self):
         """A thin straw: its clean frames' strongest pixels under
         :data:`~vidtrack.track._thin.THIN_PX` wide (3 of them at least)."""
         return len(self.strong_widths) >= 3 and \
             statistics.median(self.strong_widths) < THIN_PX
+
+    def look(self, background):
+        """``(grey level, width, contrast)`` of a rod from its clean frames (``background``:
+        the background's level where it was last clean), or None: an object of any shape
+        (its size and level change as it turns), or one whose level or widths are not
+        known from 3 clean frames."""
+        if self.compact or self.level is None or len(self.widths) < 3 or \
+                not np.isfinite(background):
+            return None
+        return self.level, float(statistics.median(self.widths)), self.level - background
 
     def trims(self):
         """An object of one grey level (learnt from 3 clean frames): what is attached
@@ -150,3 +181,24 @@ class Follow:
         if self.snapshot is None and len(self.areas) >= 5:
             self.snapshot = (list(self.levels), list(self.areas), list(self.lengths),
                              list(self.widths))
+
+
+def unlike(look, blobs):
+    """How the rod ``blobs`` (a tracklet's detections) differ from the rod of ``look``
+    (:meth:`Follow.look`): a phrase, or None when they may be that rod (see
+    :data:`LOOK_WIDTH`, :data:`LOOK_LEVEL`)."""
+    level, width, contrast = look
+    widths = [b.width for b in blobs if np.isfinite(b.width) and b.width > 0]
+    levels = [b.level for b in blobs if np.isfinite(b.level)]
+    if widths:
+        # (narrower than THIN_PX, a rod's width is set by where it falls on the pixel
+        # grid: such widths are all alike here)
+        ratio = max(statistics.median(widths), THIN_PX) / max(width, THIN_PX)
+        if not 1.0 / LOOK_WIDTH <= ratio <= LOOK_WIDTH:
+            return f"{ratio:.2g} times as wide"
+    if levels and abs(contrast) > 0:
+        off = (statistics.median(levels) - level) / abs(contrast)
+        if abs(off) > LOOK_LEVEL:
+            return (f"grey level {statistics.median(levels):.0f} against {level:.0f} "
+                    f"(background {level - contrast:.0f})")
+    return None

@@ -18,7 +18,7 @@ from vidtrack.errors import TrackError
 from vidtrack.track import _refine
 from vidtrack.track._flags import (APPEARANCE, BLADE, BORDER, LOST, MERGED, OUTLIER,
                                    PRE_RELEASE, PREDICTED)
-from vidtrack.track._follow import Follow
+from vidtrack.track._follow import Follow, unlike
 from vidtrack.track._rods import OFF_AXIS_MAX, rod_fill, rodlike_run, thin_line_run
 from vidtrack.track._search import search_blobs
 from vidtrack.track._segment import Segmenter
@@ -239,6 +239,8 @@ class Pass:
                             slow=slow)
         self.fol = None
         self.lost_state = None      # (Predictor, tau) of the straw when it was lost
+        self.lost_look = None       # a lost rod's Follow.look, None for any other
+        self.unlike_noted = set()   # first frames of the tracklets refused so
         self.last_level = float("nan")
         self.moving_frames = 0
         self.speck_limit = max(_SPECKS_MIN, _SPECKS_PER_MPX * rows * cols / 1e6)
@@ -298,8 +300,21 @@ class Pass:
         pts = np.array(tr.points[-2:])
         tv = (pts[1, 1:] - pts[0, 1:]) / max(pts[1, 0] - pts[0, 0], 1e-9)
         vgate = 2.0 + 0.3 * speed + float(np.hypot(*acc)) * gap
-        return (np.hypot(*(pts[1, 1:] - p)) <= gate
-                and np.hypot(*(tv - (vel + acc * gap))) <= vgate)
+        if not (np.hypot(*(pts[1, 1:] - p)) <= gate
+                and np.hypot(*(tv - (vel + acc * gap))) <= vgate):
+            return False
+        # where and as fast as it can be, a rod that does not look like the lost one is
+        # another object (a straw that came out of a long merge with the rider followed)
+        why = None if self.lost_look is None else unlike(self.lost_look, tr.blobs)
+        if why is None:
+            return True
+        first = int(self.fnums[tr.blobs[0].index])
+        if first not in self.unlike_noted and len(self.unlike_noted) < 3:
+            self.unlike_noted.add(first)
+            self.notes.append(
+                f"lost at frame {int(self.fnums[self.lost_index])}: the rod found from frame "
+                f"{first} where it could be is {why}: another object, not taken")
+        return False
 
     def search(self, i, frame, gain, near=None):
         """:func:`~vidtrack.track._search.search_blobs` of frame ``i`` (only where a lost
@@ -484,6 +499,17 @@ class Pass:
             self.clean[drop] = self.solid[drop] = False
         else:
             self.lost_state = (fol.pred, self.tau[i])
+            self.lost_index = i
+            last = np.flatnonzero(self.clean[:i])
+            bg = np.nan
+            if last.size:
+                k = last[-1]
+                rows, cols = self.shape
+                cu = int(np.clip(round(self.u[k]), 0, cols - 1))
+                cv = int(np.clip(round(self.v[k]), 0, rows - 1))
+                # (the background round it, not under its one pixel)
+                bg = float(np.median(self.seg.bg[max(cv - 4, 0):cv + 5, max(cu - 4, 0):cu + 5]))
+            self.lost_look = fol.look(bg)
             if fol.level is not None:
                 self.last_level = fol.level
         self.acq.reset()
@@ -632,6 +658,10 @@ class Pass:
         _refine.flag_grown_seeds(area, length, flags, seeded & ~solid & (flags == 0),
                                  (flags == 0) & ~seeded & ~solid, merged_flag=MERGED)
         pos = np.column_stack([u, v])
+        # a rod taken as it came out from behind something before it, its first frames
+        # short at one end
+        _refine.flag_cut_ends(tau, pos, length, self.angle, flags, ~solid & (flags == 0),
+                              cut_flag=APPEARANCE)
         scatter = _refine.flag_outliers(tau, pos, flags, clean_mask=flags == 0,
                                         outlier_flag=OUTLIER)
         if self.view == "top":

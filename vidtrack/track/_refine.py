@@ -6,6 +6,9 @@ are never used to judge others.
 
 - :func:`flag_odd_sizes`: an object of any shape keeps its size from frame to frame; a
   clean frame far from the median size of the clean frames round it is flagged.
+- :func:`flag_cut_ends`: a rod shorter than the clean frames round it whose centre lies
+  off their path along its axis has one end hidden (coming out from behind something
+  in front of it, or going behind it); flagged.
 - :func:`flag_outliers`: a point farther than ``max(min_px, 6 x robust scatter)`` from a
   quadratic through its clean neighbours (up to 4 on each side, itself left out) is
   flagged OUTLIER.
@@ -23,6 +26,7 @@ are never used to judge others.
 
 import numpy as np
 
+from vidtrack.track._rods import end_hidden
 from vidtrack.track.background import MAD_TO_SIGMA
 
 
@@ -121,6 +125,48 @@ def flag_grown_seeds(area, length, flags, seeds, clean, *, merged_flag, ratio=1.
             bad.append(i)
     flags[bad] |= merged_flag
     return len(bad)
+
+
+def flag_cut_ends(tau, pos, length, angle, flags, mask, *, cut_flag, half=12):
+    """Flag the frames ``mask`` of a rod (clean, measured) that have one end hidden.
+
+    For each, the clean frames of the mask within ``half`` frames give its length (their
+    75th percentile: the rod may come out from behind something on one side only) and
+    how much it changes from one to the next; when it is shorter
+    (:func:`~vidtrack.track._rods.end_hidden`), a quadratic through those of them at
+    95 % of that length or more (4 at least) says where its centre is, within its
+    scatter about them and the uncertainty of its extrapolation (its leverage there).
+    Works in both directions of time, where the follower (which flags a rod going behind
+    something as it goes) cannot see a rod that was taken while it came out.
+    """
+    idx = np.flatnonzero(mask & np.isfinite(length))
+    bad = []
+    for i in idx:
+        near = idx[(np.abs(tau[idx] - tau[i]) <= half) & (idx != i)]
+        if near.size < 4:
+            continue
+        ref = float(np.percentile(length[near], 75))
+        jitter = float(np.median(np.abs(np.diff(length[near]))))
+        short = ref - length[i]
+        if not end_hidden(0.5 * short, short, ref, 0.0, jitter):    # (not short enough)
+            continue
+        full = near[length[near] >= 0.95 * ref]
+        if full.size < 4:
+            continue
+        t0 = tau[full].mean()
+        a = np.vander(tau[full] - t0, 3, increasing=True)
+        coef, *_ = np.linalg.lstsq(a, pos[full], rcond=None)
+        x0 = np.vander(np.atleast_1d(tau[i] - t0), 3, increasing=True)[0]
+        rss = float(np.sum((pos[full] - a @ coef) ** 2))
+        dof = max(full.size - 3, 1)
+        lev = float(x0 @ np.linalg.pinv(a.T @ a) @ x0)
+        # (scatter per coordinate, at least 0.05 px: positions are not exact)
+        err = max(np.sqrt(rss / (2 * dof)), 0.05) * np.sqrt(1.0 + lev)
+        off = pos[i] - x0 @ coef
+        along = off[0] * np.cos(angle[i]) + off[1] * np.sin(angle[i])
+        if end_hidden(along, short, ref, err, jitter):
+            bad.append(i)
+    flags[bad] |= cut_flag
 
 
 def flag_outliers(tau, pos, flags, *, clean_mask, outlier_flag, min_px=1.0):

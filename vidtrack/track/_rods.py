@@ -44,6 +44,15 @@ SEPARATE_FRAMES = 10
 #: as it moves across it, so its fill says nothing (``vidtrack synth`` at its default
 #: 5.3 mm/px: 0.59 to 1.9). Its shape is then judged by its coverage beyond its band.
 FILL_WIDTH_MIN = THIN_PX
+#: A rod shorter than its clean frames by at least this (px; and 5 % of their length, and
+#: 3 times the median change of length between them, which a rod measured on its body
+#: with a highlight along it changes by 1 to 2 px from frame to frame) ...
+SHORT_PX = 1.0
+#: ... whose centre lies off where they put it, along its axis, by about half what it
+#: lost (between this share of it and one minus this share; give or take 3 times their
+#: scatter) has one end hidden: behind something in front of it, its centre moves by
+#: half what it lost; turning, it shortens about its centre.
+END_SHIFT = 0.25
 #: A rod measured on its own band (something attached cut away) is kept when its length
 #: and width are within these fractions of its clean frames'.
 ALONE_LENGTH_TOL = 0.10
@@ -139,3 +148,18 @@ def rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area):
     b2.merged = other_touching(work, width=ref_w, min_area=min_area)
     work.d = d
     return b2, dropped
+
+
+def end_hidden(along, short, ref_len, err, jitter):
+    """A rod ``short`` (px) shorter than its clean frames' length ``ref_len``, its centre
+    ``along`` (px) off where they put it along its axis, their scatter ``err`` (px) and
+    the median change of their length from one to the next ``jitter`` (px): one end
+    hidden (:data:`SHORT_PX`, :data:`END_SHIFT`). Arrays or scalars."""
+    short = np.asarray(short, float)
+    err = 3.0 * np.asarray(err, float)
+    off = np.abs(along)
+    with np.errstate(invalid="ignore"):
+        return ((short >= np.maximum(np.maximum(SHORT_PX, 0.05 * np.asarray(ref_len, float)),
+                                     3.0 * np.asarray(jitter, float)))
+                & (off >= np.maximum(END_SHIFT * short, err))
+                & (off <= (1.0 - END_SHIFT) * short + err))

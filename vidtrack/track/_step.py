@@ -14,7 +14,7 @@ import numpy as np
 from vidtrack.track._flags import APPEARANCE, BORDER, MERGED
 from vidtrack.track._rods import (FILL_MIN, FILL_SEPARATE, FILL_WIDTH_MIN, OFF_AXIS_MAX,
                                   SEPARATE_FRAMES, WIDTH_GROWN,
-                                  attached_across, rod_alone, rod_fill)
+                                  attached_across, end_hidden, rod_alone, rod_fill)
 from vidtrack.track._coverage import measure, shade_background
 from vidtrack.track._mixed import measure_mixed
 from vidtrack.track._segment import edge_stats, read_level, work_margin
@@ -45,6 +45,15 @@ def follow(ps, i, frame, f):
         return False
     step.judge()
     return True
+
+
+def one_end_hidden(b, p, ref_len, err, jitter):
+    """The rod ``b`` lost part of its length at one end (behind something in front of
+    it: a post, a machine part, the frame's edge), going by its prediction ``p`` (px),
+    its clean frames' length ``ref_len`` and its change from one to the next ``jitter``,
+    and the prediction's RMS error ``err`` (px) (:func:`~vidtrack.track._rods.end_hidden`)."""
+    along = (b.u - p[0]) * math.cos(b.angle) + (b.v - p[1]) * math.sin(b.angle)
+    return bool(end_hidden(along, ref_len - b.length, ref_len, err, jitter))
 
 
 def _only_fainter(reg, others, p, reach, own_peak):
@@ -366,8 +375,17 @@ class _Step:
         odd = (not same and ref_cov is not None and len(f.covs) >= 3
                and b.area < 0.65 * ref_cov and f.last_cov is not None
                and b.area < 0.8 * f.last_cov)
+        # a rod shortened at one end: part of it hidden behind something before it (its
+        # centroid lags or leads its centre), not turning. Judged only in a run of frames
+        # that follows a clean one (the prediction over a gap is not that good)
+        cut = (rod_shape and not same and len(f.lengths) >= 3
+               and abs(i - f.judged_at) == 1
+               and one_end_hidden(b, p, ref_len, self.err, f.length_jitter))
+        odd = odd or cut
         f.last_cov = b.area
         fl = store(i, b, fl | (MERGED if same else 0) | (APPEARANCE if odd else 0))
+        if cut or fl == 0:
+            f.judged_at = i
         ps.solid[i] = f.compact
         if same or odd or (fl & BORDER):
             f.seen(b)
