@@ -138,6 +138,14 @@ class Follow:
             if len(ls) >= 2 else 0.0
 
     @property
+    def cov_jitter(self):
+        """Median relative change of the coverage from one clean frame to the next (0
+        before two are known)."""
+        cs = list(self.covs)
+        return float(statistics.median(abs(b - a) / max(a, 1e-9) for a, b in zip(cs, cs[1:]))) \
+            if len(cs) >= 2 else 0.0
+
+    @property
     def thin(self):
         """A thin straw: its clean frames' strongest pixels under
         :data:`~vidtrack.track._thin.THIN_PX` wide (3 of them at least)."""

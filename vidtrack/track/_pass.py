@@ -658,10 +658,12 @@ class Pass:
         _refine.flag_grown_seeds(area, length, flags, seeded & ~solid & (flags == 0),
                                  (flags == 0) & ~seeded & ~solid, merged_flag=MERGED)
         pos = np.column_stack([u, v])
-        # a rod taken as it came out from behind something before it, its first frames
-        # short at one end
-        _refine.flag_cut_ends(tau, pos, length, self.angle, flags, ~solid & (flags == 0),
-                              cut_flag=APPEARANCE)
+        # an object taken as it came out from behind something before it: its first
+        # frames partly hidden (a rod short at one end)
+        _refine.flag_hidden_parts(tau, pos, length, flags, ~solid & (flags == 0),
+                                  cut_flag=APPEARANCE, angle=self.angle)
+        _refine.flag_hidden_parts(tau, pos, area, flags, solid & (flags == 0),
+                                  cut_flag=APPEARANCE)
         scatter = _refine.flag_outliers(tau, pos, flags, clean_mask=flags == 0,
                                         outlier_flag=OUTLIER)
         if self.view == "top":

@@ -6,9 +6,11 @@ are never used to judge others.
 
 - :func:`flag_odd_sizes`: an object of any shape keeps its size from frame to frame; a
   clean frame far from the median size of the clean frames round it is flagged.
-- :func:`flag_cut_ends`: a rod shorter than the clean frames round it whose centre lies
-  off their path along its axis has one end hidden (coming out from behind something
-  in front of it, or going behind it); flagged.
+- :func:`flag_hidden_parts`: a rod shorter than the clean frames round it whose centre
+  lies off their path along its axis by about half what it lost, or an object of any
+  shape smaller than them whose centroid lies off their path as far as a part hidden at
+  one side moves it, is partly hidden (coming out from behind something in front of
+  it, or going behind it); flagged.
 - :func:`flag_outliers`: a point farther than ``max(min_px, 6 x robust scatter)`` from a
   quadratic through its clean neighbours (up to 4 on each side, itself left out) is
   flagged OUTLIER.
@@ -26,7 +28,7 @@ are never used to judge others.
 
 import numpy as np
 
-from vidtrack.track._rods import end_hidden
+from vidtrack.track._rods import SHORT_SHARE, end_hidden, hidden_side
 from vidtrack.track.background import MAD_TO_SIGMA
 
 
@@ -127,30 +129,39 @@ def flag_grown_seeds(area, length, flags, seeds, clean, *, merged_flag, ratio=1.
     return len(bad)
 
 
-def flag_cut_ends(tau, pos, length, angle, flags, mask, *, cut_flag, half=12):
-    """Flag the frames ``mask`` of a rod (clean, measured) that have one end hidden.
+def flag_hidden_parts(tau, pos, size, flags, mask, *, cut_flag, angle=None, half=12):
+    """Flag the clean, measured frames ``mask`` of an object that have part of it hidden.
 
-    For each, the clean frames of the mask within ``half`` frames give its length (their
-    75th percentile: the rod may come out from behind something on one side only) and
-    how much it changes from one to the next; when it is shorter
-    (:func:`~vidtrack.track._rods.end_hidden`), a quadratic through those of them at
-    95 % of that length or more (4 at least) says where its centre is, within its
-    scatter about them and the uncertainty of its extrapolation (its leverage there).
-    Works in both directions of time, where the follower (which flags a rod going behind
-    something as it goes) cannot see a rod that was taken while it came out.
+    ``size``: a rod's length (with its ``angle``), or the coverage of an object of any
+    shape (``angle`` None). For each frame, the frames of the mask within ``half`` frames
+    give its size (their 75th percentile: it may come out from behind something on one
+    side only) and how much that changes from one to the next; when it is smaller
+    (:func:`~vidtrack.track._rods.end_hidden`, :func:`~vidtrack.track._rods.hidden_side`),
+    a quadratic through those of them at 95 % of that size or more (4 at least) says
+    where it is, within their scatter about it and the uncertainty of its extrapolation
+    (its leverage there). Works in both directions of time, where the follower (which
+    flags an object going behind something as it goes) cannot see one that was taken
+    while it came out.
     """
-    idx = np.flatnonzero(mask & np.isfinite(length))
+    idx = np.flatnonzero(mask & np.isfinite(size))
+    rod = angle is not None
     bad = []
     for i in idx:
         near = idx[(np.abs(tau[idx] - tau[i]) <= half) & (idx != i)]
         if near.size < 4:
             continue
-        ref = float(np.percentile(length[near], 75))
-        jitter = float(np.median(np.abs(np.diff(length[near]))))
-        short = ref - length[i]
-        if not end_hidden(0.5 * short, short, ref, 0.0, jitter):    # (not short enough)
+        ref = float(np.percentile(size[near], 75))
+        change = np.abs(np.diff(size[near]))
+        if rod:
+            short, jitter = ref - size[i], float(np.median(change))
+            maybe = end_hidden(0.5 * short, short, ref, 0.0, jitter)
+        else:
+            short = 1.0 - size[i] / ref
+            jitter = float(np.median(change / np.maximum(size[near][:-1], 1e-9)))
+            maybe = short >= max(SHORT_SHARE, 3.0 * jitter)
+        if not maybe:
             continue
-        full = near[length[near] >= 0.95 * ref]
+        full = near[size[near] >= 0.95 * ref]
         if full.size < 4:
             continue
         t0 = tau[full].mean()
@@ -158,13 +169,16 @@ def flag_cut_ends(tau, pos, length, angle, flags, mask, *, cut_flag, half=12):
         coef, *_ = np.linalg.lstsq(a, pos[full], rcond=None)
         x0 = np.vander(np.atleast_1d(tau[i] - t0), 3, increasing=True)[0]
         rss = float(np.sum((pos[full] - a @ coef) ** 2))
-        dof = max(full.size - 3, 1)
         lev = float(x0 @ np.linalg.pinv(a.T @ a) @ x0)
         # (scatter per coordinate, at least 0.05 px: positions are not exact)
-        err = max(np.sqrt(rss / (2 * dof)), 0.05) * np.sqrt(1.0 + lev)
+        err = max(np.sqrt(rss / (2 * max(full.size - 3, 1))), 0.05) * np.sqrt(1.0 + lev)
         off = pos[i] - x0 @ coef
-        along = off[0] * np.cos(angle[i]) + off[1] * np.sin(angle[i])
-        if end_hidden(along, short, ref, err, jitter):
+        if rod:
+            along = off[0] * np.cos(angle[i]) + off[1] * np.sin(angle[i])
+            hidden = end_hidden(along, short, ref, err, jitter)
+        else:
+            hidden = hidden_side(float(np.hypot(*off)), short, ref, err, jitter)
+        if hidden:
             bad.append(i)
     flags[bad] |= cut_flag
 

@@ -53,6 +53,9 @@ SHORT_PX = 1.0
 #: scatter) has one end hidden: behind something in front of it, its centre moves by
 #: half what it lost; turning, it shortens about its centre.
 END_SHIFT = 0.25
+#: An object of any shape that lost at least this share of its area is looked at for a
+#: part hidden at one side (:func:`hidden_side`).
+SHORT_SHARE = 0.05
 #: A rod measured on its own band (something attached cut away) is kept when its length
 #: and width are within these fractions of its clean frames'.
 ALONE_LENGTH_TOL = 0.10
@@ -163,3 +166,23 @@ def end_hidden(along, short, ref_len, err, jitter):
                                      3.0 * np.asarray(jitter, float)))
                 & (off >= np.maximum(END_SHIFT * short, err))
                 & (off <= (1.0 - END_SHIFT) * short + err))
+
+
+def hidden_side(off, lost, area, err, jitter):
+    """An object of any shape of area ``area`` (px^2) that lost a share ``lost`` of it,
+    its centroid ``off`` (px) from where its clean frames put it, their scatter ``err``
+    (px) and the relative change of their area from one to the next ``jitter``: part of
+    it hidden at one side. Hidden behind a straight edge, a disc of radius R that lost a
+    share s has its centroid moved by s / (1 - s) times the hidden part's distance from
+    its centre, 0.42 R (half of it) to R (a sliver); shrinking as it turns, about its
+    centre. Lost at least :data:`SHORT_SHARE` (and 3 times ``jitter``), moved at least
+    a tenth of the least and at most the most (give or take 3 times ``err``)."""
+    lost = np.asarray(lost, float)
+    r = np.sqrt(np.asarray(area, float) / np.pi)
+    err = 3.0 * np.asarray(err, float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        most = r * lost / np.maximum(1.0 - lost, 1e-6)
+        return ((lost >= np.maximum(SHORT_SHARE, 3.0 * np.asarray(jitter, float)))
+                & (lost < 1.0)
+                & (np.abs(off) >= np.maximum(0.1 * 0.42 * most, err))
+                & (np.abs(off) <= most + err))

@@ -14,7 +14,7 @@ import numpy as np
 from vidtrack.track._flags import APPEARANCE, BORDER, MERGED
 from vidtrack.track._rods import (FILL_MIN, FILL_SEPARATE, FILL_WIDTH_MIN, OFF_AXIS_MAX,
                                   SEPARATE_FRAMES, WIDTH_GROWN,
-                                  attached_across, end_hidden, rod_alone, rod_fill)
+                                  attached_across, end_hidden, hidden_side, rod_alone, rod_fill)
 from vidtrack.track._coverage import measure, shade_background
 from vidtrack.track._mixed import measure_mixed
 from vidtrack.track._segment import edge_stats, read_level, work_margin
@@ -54,6 +54,15 @@ def one_end_hidden(b, p, ref_len, err, jitter):
     and the prediction's RMS error ``err`` (px) (:func:`~vidtrack.track._rods.end_hidden`)."""
     along = (b.u - p[0]) * math.cos(b.angle) + (b.v - p[1]) * math.sin(b.angle)
     return bool(end_hidden(along, ref_len - b.length, ref_len, err, jitter))
+
+
+def side_hidden(b, p, ref_cov, err, jitter):
+    """An object of any shape ``b`` lost part of its area at one side (behind something in
+    front of it), going by its prediction ``p`` (px), its clean frames' coverage
+    ``ref_cov`` (px^2) and its relative change from one to the next ``jitter``, and the
+    prediction's RMS error ``err`` (px) (:func:`~vidtrack.track._rods.side_hidden`)."""
+    return bool(hidden_side(math.hypot(b.u - p[0], b.v - p[1]), 1.0 - b.area / ref_cov,
+                            ref_cov, err, jitter))
 
 
 def _only_fainter(reg, others, p, reach, own_peak):
@@ -378,9 +387,11 @@ class _Step:
         # a rod shortened at one end: part of it hidden behind something before it (its
         # centroid lags or leads its centre), not turning. Judged only in a run of frames
         # that follows a clean one (the prediction over a gap is not that good)
-        cut = (rod_shape and not same and len(f.lengths) >= 3
-               and abs(i - f.judged_at) == 1
-               and one_end_hidden(b, p, ref_len, self.err, f.length_jitter))
+        cut = (not same and abs(i - f.judged_at) == 1 and (
+            (rod_shape and len(f.lengths) >= 3
+             and one_end_hidden(b, p, ref_len, self.err, f.length_jitter))
+            or (not rod_shape and ref_cov is not None and len(f.covs) >= 3
+                and side_hidden(b, p, ref_cov, self.err, f.cov_jitter))))
         odd = odd or cut
         f.last_cov = b.area
         fl = store(i, b, fl | (MERGED if same else 0) | (APPEARANCE if odd else 0))
