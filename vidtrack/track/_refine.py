@@ -28,7 +28,7 @@ are never used to judge others.
 
 import numpy as np
 
-from vidtrack.track._rods import SHORT_SHARE, end_hidden, hidden_side
+from vidtrack.track._rods import SHORT_PX, SHORT_SHARE, end_hidden, hidden_side
 from vidtrack.track.background import MAD_TO_SIGMA
 
 
@@ -146,7 +146,15 @@ def flag_hidden_parts(tau, pos, size, flags, mask, *, cut_flag, angle=None, half
     idx = np.flatnonzero(mask & np.isfinite(size))
     rod = angle is not None
     bad = []
-    for i in idx:
+    if idx.size < 5:
+        return
+    # only frames smaller than the largest of the half frames either side of them (a
+    # window of as many clean frames spans as many frames or more) can be
+    s = size[idx]
+    most = np.lib.stride_tricks.sliding_window_view(
+        np.pad(s, half, mode="edge"), 2 * half + 1).max(axis=1)
+    small = (most - s >= SHORT_PX) if rod else (s <= (1.0 - SHORT_SHARE) * most)
+    for i in idx[small]:
         near = idx[(np.abs(tau[idx] - tau[i]) <= half) & (idx != i)]
         if near.size < 4:
             continue
