@@ -243,6 +243,7 @@ class Pass:
                             slow=slow)
         self.fol = None
         self.lost_state = None      # (Predictor, tau) of the straw when it was lost
+        self.lost_index = None      # the frame where it was lost
         self.lost_look = None       # a lost rod's Follow.look, None for any other
         self.unlike_noted = set()   # first frames of the tracklets refused so
         self.last_level = float("nan")
@@ -486,6 +487,14 @@ class Pass:
                 raise Cancelled(f"tracking of {_name(self.view, self.source)} cancelled")
             yield item
 
+    def _background_at(self, k):
+        """The background's median level in the 9 x 9 pixels round frame ``k``'s point
+        (round it, not under its one pixel)."""
+        rows, cols = self.shape
+        cu = int(np.clip(round(self.u[k]), 0, cols - 1))
+        cv = int(np.clip(round(self.v[k]), 0, rows - 1))
+        return float(np.median(self.seg.bg[max(cv - 4, 0):cv + 5, max(cu - 4, 0):cu + 5]))
+
     def _lost(self, i):
         """The follower lost the object at frame ``i``: dropped (never seen flying clear
         of other objects: not the straw) or remembered as lost."""
@@ -505,15 +514,7 @@ class Pass:
             self.lost_state = (fol.pred, self.tau[i])
             self.lost_index = i
             last = np.flatnonzero(self.clean[:i])
-            bg = np.nan
-            if last.size:
-                k = last[-1]
-                rows, cols = self.shape
-                cu = int(np.clip(round(self.u[k]), 0, cols - 1))
-                cv = int(np.clip(round(self.v[k]), 0, rows - 1))
-                # (the background round it, not under its one pixel)
-                bg = float(np.median(self.seg.bg[max(cv - 4, 0):cv + 5, max(cu - 4, 0):cu + 5]))
-            self.lost_look = fol.look(bg)
+            self.lost_look = fol.look(self._background_at(last[-1]) if last.size else np.nan)
             if fol.level is not None:
                 self.last_level = fol.level
         self.acq.reset()
