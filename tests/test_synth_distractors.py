@@ -51,7 +51,7 @@ CASES = {
 _XFAIL = {}
 
 #: The least share of a view's frames that stays unflagged (0.5 unless given): the dark
-#: straw with its highlight and a rider along it keeps 332 and 179 of 372 (the top view's
+#: straw with its highlight and a rider along it keeps 327 and 181 of 372 (the top view's
 #: highlight, too thin to survive the detections' erosion, leaves frames measured by
 #: their coverage, which the highlight cancels in part: their fill is low and they are
 #: flagged). Before the rod's core band (measure_mixed), 40 and 84 unflagged frames were
