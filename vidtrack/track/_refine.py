@@ -28,7 +28,8 @@ are never used to judge others.
 
 import numpy as np
 
-from vidtrack.track._rods import SHORT_PX, SHORT_SHARE, end_hidden, hidden_side
+from vidtrack.track._rods import (SHORT_PX, SHORT_SHARE, area_shrunk, end_hidden,
+                                  hidden_side, rod_shortened)
 from vidtrack.track.background import MAD_TO_SIGMA
 
 
@@ -162,11 +163,11 @@ def flag_hidden_parts(tau, pos, size, flags, mask, *, cut_flag, angle=None, half
         change = np.abs(np.diff(size[near]))
         if rod:
             short, jitter = ref - size[i], float(np.median(change))
-            maybe = end_hidden(0.5 * short, short, ref, 0.0, jitter)
+            maybe = rod_shortened(short, ref, jitter)
         else:
             short = 1.0 - size[i] / ref
             jitter = float(np.median(change / np.maximum(size[near][:-1], 1e-9)))
-            maybe = short >= max(SHORT_SHARE, 3.0 * jitter)
+            maybe = area_shrunk(short, jitter)
         if not maybe:
             continue
         full = near[size[near] >= 0.95 * ref]

@@ -153,6 +153,25 @@ def rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area):
     return b2, dropped
 
 
+def rod_shortened(short, ref_len, jitter):
+    """A rod ``short`` (px) shorter than its clean frames' length ``ref_len``, whose
+    length changes by ``jitter`` (px, median) from one to the next, is short enough to
+    be looked at for an end hidden (:data:`SHORT_PX`). Arrays or scalars."""
+    with np.errstate(invalid="ignore"):
+        return np.asarray(short, float) >= np.maximum(
+            np.maximum(SHORT_PX, 0.05 * np.asarray(ref_len, float)),
+            3.0 * np.asarray(jitter, float))
+
+
+def area_shrunk(lost, jitter):
+    """An object of any shape that lost a share ``lost`` of its area, which changes by
+    ``jitter`` (relative, median) from one clean frame to the next, shrank enough to be
+    looked at for a part hidden (:data:`SHORT_SHARE`). Arrays or scalars."""
+    with np.errstate(invalid="ignore"):
+        return np.asarray(lost, float) >= np.maximum(SHORT_SHARE,
+                                                     3.0 * np.asarray(jitter, float))
+
+
 def end_hidden(along, short, ref_len, err, jitter):
     """A rod ``short`` (px) shorter than its clean frames' length ``ref_len``, its centre
     ``along`` (px) off where they put it along its axis, their scatter ``err`` (px) and
@@ -162,8 +181,7 @@ def end_hidden(along, short, ref_len, err, jitter):
     err = 3.0 * np.asarray(err, float)
     off = np.abs(along)
     with np.errstate(invalid="ignore"):
-        return ((short >= np.maximum(np.maximum(SHORT_PX, 0.05 * np.asarray(ref_len, float)),
-                                     3.0 * np.asarray(jitter, float)))
+        return (rod_shortened(short, ref_len, jitter)
                 & (off >= np.maximum(END_SHIFT * short, err))
                 & (off <= (1.0 - END_SHIFT) * short + err))
 
@@ -182,7 +200,7 @@ def hidden_side(off, lost, area, err, jitter):
     err = 3.0 * np.asarray(err, float)
     with np.errstate(invalid="ignore", divide="ignore"):
         most = r * lost / np.maximum(1.0 - lost, 1e-6)
-        return ((lost >= np.maximum(SHORT_SHARE, 3.0 * np.asarray(jitter, float)))
+        return (area_shrunk(lost, jitter)
                 & (lost < 1.0)
                 & (np.abs(off) >= np.maximum(0.1 * 0.42 * most, err))
                 & (np.abs(off) <= most + err))
