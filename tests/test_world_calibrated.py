@@ -262,3 +262,31 @@ def test_rod_correction_needs_angles(scene):
     assert not any(c.startswith("rod_shift") for c in w.data.columns)
     with pytest.raises(ValueError, match="rod must be"):
         triangulate_views(tracks, cams, fps={"cam1": FPS, "cam2": FPS}, up=UP, rod="cone")
+
+
+def test_a_frame_beside_a_gap_is_kept_when_the_offset_is_a_hair_off_a_whole_frame():
+    """A view placed a few thousandths of a frame off (as a reprojection search finds
+    synchronous views) is carried on, straight, the hair beyond a frame whose neighbour on
+    that side is missing (an excluded frame, the track's end): before, each such frame was
+    lost. A quarter of a frame is not carried on, and the search for the offsets itself
+    sees only what lies between frames."""
+    from vidtrack.world.calibrated import _REACH, _at
+
+    fps = 100.0
+    frames = np.r_[0:20, 25:40].astype(float)          # frames 20..24 excluded
+    t = frames / fps
+
+    def track(tt):                                      # a curved track, px
+        return np.column_stack([3.0 * tt * fps + 0.4 * (tt * fps) ** 2, 5.0 - tt * fps])
+
+    uv = track(t)
+    for hair in (-0.004, 0.004):
+        want = (frames + hair) / fps
+        got = _at(want, t, uv, fps, reach=_REACH)
+        assert np.isfinite(got).all()                   # 19 + hair, 25 + hair, the ends
+        # the straight line through two frames misses the parabola by a r (1 + r) / 2
+        assert np.abs(got - track(want)).max() <= 0.4 * abs(hair) * (1 + abs(hair)) + 1e-9
+        bare = _at(want, t, uv, fps)
+        assert np.isfinite(bare[:, 0]).sum() == len(frames) - 2   # an end, a side of the gap
+    far = _at(np.array([19.25, 24.75]) / fps, t, uv, fps, reach=_REACH)
+    assert np.isnan(far).all()
