@@ -156,16 +156,23 @@ def _ndtr(z):
     return ndtr(z)
 
 
-def _parts(p, xx, yy):
-    u, v, th, h, a, s, s2 = p
+def _along(p, xx, yy):
+    """``cos, sin`` of the segment ``p``'s angle, the pixels' distances along and across
+    it from its centre, ``w1, w2`` (its ends over the blur along) and its profile along."""
+    u, v, th, h, s2 = p[0], p[1], p[2], p[3], p[6]
     ca, sa = math.cos(th), math.sin(th)
     dx, dy = xx - u, yy - v
     q = dx * ca + dy * sa
     r = dy * ca - dx * sa
-    z1, z2 = (r + 0.5) / s, (r - 0.5) / s
     w1, w2 = (h - q) / s2, (-h - q) / s2
+    return ca, sa, q, r, w1, w2, _ndtr(w1) - _ndtr(w2)
+
+
+def _parts(p, xx, yy):
+    ca, sa, q, r, w1, w2, along = _along(p, xx, yy)
+    s = p[5]
+    z1, z2 = (r + 0.5) / s, (r - 0.5) / s
     across = _ndtr(z1) - _ndtr(z2)
-    along = _ndtr(w1) - _ndtr(w2)
     return ca, sa, q, r, z1, z2, w1, w2, across, along
 
 
@@ -199,17 +206,12 @@ def _ramp(x, s):
 
 
 def _strip_parts(p, xx, yy):
-    u, v, th, h, a, s, s2 = p
-    ca, sa = math.cos(th), math.sin(th)
-    dx, dy = xx - u, yy - v
-    q = dx * ca + dy * sa
-    r = dy * ca - dx * sa
+    ca, sa, q, r, w1, w2, along = _along(p, xx, yy)
+    a, s = p[4], p[5]
     # the strip [-a/2, a/2] seen through the pixel's unit box: edges at r +- (a +- 1)/2
     e = [r + 0.5 * (a + 1.0), r + 0.5 * (a - 1.0), r - 0.5 * (a - 1.0), r - 0.5 * (a + 1.0)]
     sign = (1.0, -1.0, -1.0, 1.0)
     across = sum(g * _ramp(x, s) for g, x in zip(sign, e))
-    w1, w2 = (h - q) / s2, (-h - q) / s2
-    along = _ndtr(w1) - _ndtr(w2)
     return ca, sa, q, r, e, sign, w1, w2, across, along
 
 
