@@ -1,5 +1,5 @@
 """vidtrack synth's distractors (what real footage taught): the shadow, the rider, the dark
-straw with its highlight, the person at the side.
+straw with its highlight, the person at the side, a post in front of the front camera.
 
 - render only: each distractor is really in the frames, where truth.json says, and
   nowhere else (a render with the option against the same render without it: same seed,
@@ -44,11 +44,18 @@ CASES = {
     "dark_highlight_riding": (["--straw-polarity", "dark", "--highlight", "0.95",
                                "--rider", "riding"], ("rider",)),
     "person": (["--person-at-side"], ("person",)),
+    "post": (["--post", "0.6,10"], ()),
 }
 
 #: Cases the tracker fails, with what was measured (none: the dark straw with its
 #: highlight passes since a rod of both polarities is measured by its convex body).
-_XFAIL = {}
+_XFAIL = {
+    "post": "2 front frames over 0.5 px (0.77): one 18 % hidden at its side going in "
+            "(the rod narrows, it does not shorten), one 4 % hidden coming out (under "
+            "the 5 % judged); k1..k4 within 0.8 %. Before the frames that found the "
+            "lost straw again were judged: 23 frames coming out unflagged up to 15.4 px "
+            "off, k1 28 % off, exit 0",
+}
 
 #: The least share of a view's frames that stays unflagged (0.5 unless given): the dark
 #: straw with its highlight and a rider along it keeps 327 and 181 of 372 (the top view's
@@ -221,6 +228,33 @@ def test_person_moves_at_the_side_and_never_touches_the_path(tmp_path, plain):
         np.asarray(ref["u_coverage_px"], float), atol=1e-12)
 
 
+def test_post_stands_in_front_of_everything_in_the_front_view(tmp_path, plain):
+    out, truth = _render(tmp_path, post=(0.6, 40.0))     # the straw: 45 px long
+    assert truth["truth"]["distractors"] == ["post"]
+    about = truth["views"]["front"]["distractors"]["post"]
+    u0, u1 = about["u_px"]
+    assert (u0 + u1) / 2 == pytest.approx(0.6 * 319) and u1 - u0 == pytest.approx(40.0)
+    assert truth["views"]["top"]["distractors"]["post"]["drawn"] is False
+    hidden = np.asarray(truth["views"]["front"]["per_frame"]["post_hidden"], float)
+    # the straw goes behind it and comes out: wholly hidden in some frames, partly in others
+    assert (hidden > 0.999).sum() >= 3 and ((hidden > 0.02) & (hidden < 0.98)).sum() >= 4
+    with_, without = _frames(out, "front"), _frames(plain, "front")
+    inside = slice(int(np.ceil(u0 + 0.5)), int(np.floor(u1 - 0.5)) + 1)   # whole pixels
+    # its own grey everywhere on it, in every frame, the straw behind it or not (noise
+    # 1.5 DN: the mean of 200 frames within 0.5, every pixel within 7 sigma)
+    on_post = with_[:, :, inside] - 255 * about["grey"]
+    assert np.abs(on_post.mean(axis=0)).max() < 0.5 and np.abs(on_post).max() < 10.5
+    # and nothing else changed: beside it, the same frames as without it
+    beside = np.ones(with_.shape[2], bool)
+    beside[int(np.floor(u0 - 0.5)):int(np.ceil(u1 + 0.5)) + 1] = False
+    assert np.array_equal(with_[:, :, beside], without[:, :, beside])
+    assert np.array_equal(_frames(out, "top"), _frames(plain, "top"))
+    # where the straw is wholly behind it, the frame is the static scene's there
+    i = int(np.flatnonzero(hidden > 0.999)[0])
+    on = np.asarray(truth["views"]["front"]["per_frame"]["u_px"], float)[i]
+    assert u0 < on < u1
+
+
 def test_off_by_default_and_deterministic(tmp_path):
     spec = SynthSpec()
     d = spec.to_dict()
@@ -252,7 +286,8 @@ def test_run42_is_rendered_byte_for_byte_as_bundled(tmp_path, vidtrack_cli):
 
 
 @pytest.mark.parametrize("bad", [["--shadow", "0,0.4,1"], ["--shadow", "4,1.5,1"],
-                                 ["--highlight", "0.86"],
+                                 ["--highlight", "0.86"], ["--post", "1.2,8"],
+                                 ["--post", "0.5,0"],
                                  ["--rider", "riding", "--cameras", "perspective"]])
 def test_bad_distractor_options_exit_2(tmp_path, vidtrack_cli, bad):
     out = tmp_path / "bad"
@@ -422,7 +457,30 @@ THIN = {
 }
 
 #: Cases the tracker fails at this scale, with what was measured.
-_THIN_XFAIL = {}
+_THIN_XFAIL = {
+    "post": "2 front frames over 0.5 px (0.77): one 18 % hidden at its side going in "
+            "(the rod narrows, it does not shorten), one 4 % hidden coming out (under "
+            "the 5 % judged); k1..k4 within 0.8 %. Before the frames that found the "
+            "lost straw again were judged: 23 frames coming out unflagged up to 15.4 px "
+            "off, k1 28 % off, exit 0",
+}
+
+
+def test_a_straw_coming_out_from_behind_the_post_is_not_taken_at_its_visible_part(fitted):
+    """The straw (45 px long) goes behind a 10 px post, is lost there and comes out over
+    23 frames. Those frames were taken unflagged at their visible part's centre, up to
+    15.4 px off, and k1 was 28 % off (exit 0). Now they are judged against the lost
+    straw's clean frames (the case above still fails its 0.5 px: 2 frames at 0.77)."""
+    run, res = fitted("post")
+    assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
+    truth = json.loads((run / "truth.json").read_text())
+    tab = truth["views"]["front"]["per_frame"]
+    hidden = {i for i, h in enumerate(tab["post_hidden"]) if h > 0.02}
+    assert len(hidden) >= 20                       # it does go behind the post
+    errs = [math.hypot(u - tab["u_coverage_px"][i], v - tab["v_coverage_px"][i])
+            for i, u, v in _unflagged(run)["front"]]
+    assert max(errs) < 1.0, max(errs)
+    assert_k_within(json.loads(res.stdout), truth["truth"]["k"])
 
 
 @pytest.fixture(scope="module")

@@ -196,6 +196,11 @@ def add_arguments(parser):
                    metavar="AMPLITUDE_PX,FREQ_HZ",
                    help="the cameras vibrate: each whole image moved by up to AMPLITUDE_PX "
                         "at FREQ_HZ (default: still), e.g. 1.5,9")
+    g.add_argument("--post", type=_floats(2, "at,width_px"), default=None,
+                   metavar="AT,WIDTH_PX",
+                   help="a post in front of everything in the front view, upright, "
+                        "WIDTH_PX wide, its centre at the fraction AT of the view's width "
+                        "(default: none), e.g. 0.6,8")
     g = p.add_argument_group("output")
     g.add_argument("--format", default="avi", choices=("avi", "png", "cine"),
                    help="footage: AVI video (default), png image folders or Phantom .cine")
@@ -242,7 +247,7 @@ def spec_from_args(args):
         camera_distance_in_scene=not args.no_camera_distance_in_scene,
         shadow=args.shadow, rider=args.rider, straw_polarity=args.straw_polarity,
         highlight_grey=args.highlight, person_at_side=args.person_at_side,
-        shake=args.shake)
+        shake=args.shake, post=args.post)
 
 
 def run(args):

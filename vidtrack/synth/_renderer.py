@@ -35,7 +35,7 @@ import numpy as np
 from vidtrack.synth import _distractors, _raster
 from vidtrack.synth._views import (_GREY, _HUB_RADIUS_M, _SHAFT_HALF_LENGTH_M,
                                    _SHAFT_HALF_WIDTH_M, _TOOTH_HALF_BREADTH_M,
-                                   _TOOTH_HALF_WIDTH_M, _frame_times)
+                                   _TOOTH_HALF_WIDTH_M, _frame_times, post_box)
 
 from vidtrack.synth.motion import _second_pose, straw_pose
 from vidtrack.synth.spec import VIEW_NAMES
@@ -80,6 +80,7 @@ class _ViewTrack:
         """Poses of the distractors asked for (docs/synth.md, "Distractors")."""
         n, kk = self.t.size, self.kk
         self.level = spec.straw_level
+        self.post = post_box(spec, view)
         self.shadow_px = (None if spec.shadow is None
                           else _distractors.shadow_offset_px(spec))
         self.rider = spec.rider is not None
@@ -153,6 +154,16 @@ class _ViewTrack:
         if spec.highlight_grey is not None:
             out.append(("highlight", _distractors.highlight_capsule(
                 self.sub_a[i, j], self.sub_b[i, j], self.radius_px), spec.highlight_grey))
+        if self.post is not None:
+            # in front of everything: the static image has it; drawn again over what
+            # moves behind it (the part of it beside that, with a margin)
+            box, grey = self.post
+            vs = [e[2:] for e in (shape.extent_px() for _, shape, _ in out)
+                  if e[1] >= box.u0 - 1.0 and e[0] <= box.u1 + 1.0]
+            if vs:
+                v0 = max(box.v0, min(v[0] for v in vs) - 3.0)
+                v1 = min(box.v1, max(v[1] for v in vs) + 3.0)
+                out.append(("post", _raster.Box(box.u0, box.u1, v0, v1), grey))
         return out
 
     def exposure_geometry(self, i):
@@ -221,7 +232,8 @@ class _ViewRenderer:
         groups = _merge_rois(rois)
         image = self.static.copy()
         facts = {"coverage_px": 0.0, "moment_u": 0.0, "moment_v": 0.0, "overlap": False,
-                 "blade_overlap": False, "rider_overlap": False, "person_overlap": False}
+                 "blade_overlap": False, "rider_overlap": False, "person_overlap": False,
+                 "hidden_px": 0.0}
         for roi, keys in groups:
             base = self.static[roi.slices]
             acc = np.zeros(roi.shape)
@@ -245,6 +257,9 @@ class _ViewRenderer:
             if "straw" in cov:
                 straw = cov["straw"] / kk
                 facts["coverage_px"] += float(straw.sum())
+                if getattr(track, "post", None) is not None:
+                    facts["hidden_px"] += float(
+                        (straw * _raster.box_coverage(track.post[0], roi)).sum())
                 facts["moment_u"] += float((straw.sum(axis=0) * np.arange(roi.c0, roi.c1)).sum())
                 facts["moment_v"] += float((straw.sum(axis=1) * np.arange(roi.r0, roi.r1)).sum())
                 if "straw2" in cov:

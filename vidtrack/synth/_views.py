@@ -34,7 +34,7 @@ _HUB_RADIUS_M = 0.045
 _SHAFT_HALF_WIDTH_M = 0.025
 _SHAFT_HALF_LENGTH_M = 0.45
 _GREY = {"tooth": 0.30, "hub": 0.12, "housing": 0.16, "hood": 0.20,
-         "ruler": 0.82, "tick": 0.10}
+         "ruler": 0.82, "tick": 0.10, "post": 0.25}
 
 
 @dataclass(frozen=True)
@@ -203,10 +203,23 @@ def _static_image(spec, view):
             paint.append((view.world_box((-3.0, -0.5), (-(r + 0.08), 0.5)), _GREY["housing"]))
     if spec.draw_ruler:
         paint.extend(_ruler_boxes(view))
+    post = post_box(spec, view)
+    if post is not None:
+        paint.append(post)
     for shape, grey in paint:
         cov = _raster.box_coverage(shape, whole)
         img += (grey - img) * cov
     return img
+
+
+def post_box(spec, view):
+    """The post standing in front of everything (``SynthSpec.post``) as (Box, grey): the
+    front view's whole height; None in the other views or without one."""
+    if spec.post is None or view.name != "front":
+        return None
+    at, width = (float(x) for x in spec.post)
+    u = at * (view.width - 1.0)
+    return _raster.Box(u - 0.5 * width, u + 0.5 * width, -0.5, view.height - 0.5), _GREY["post"]
 
 
 def _machine_radius(spec):

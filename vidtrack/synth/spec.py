@@ -33,7 +33,7 @@ CAMERA_FIELDS = ("cameras", "camera_distance_m", "camera_angle_deg", "distortion
 #: then left out of ``to_dict`` (and so of truth.json), so that a run without them is
 #: rendered and described byte for byte as before they existed.
 DISTRACTOR_FIELDS = ("shadow", "rider", "straw_polarity", "highlight_grey", "person_at_side",
-                     "shake")
+                     "shake", "post")
 #: How the rider (a thinner, dimmer rod flying with the straw) moves: ``riding`` side by
 #: side with the straw, turning with it and sliding along it; ``crossing`` drifting
 #: across it at an angle, centres coinciding at mid-flight.
@@ -131,7 +131,11 @@ class SynthSpec:
         view that the straw's path, the rotor and the ruler leave free [False];
         ``shake`` (amplitude_px, freq_hz): each camera vibrates, its whole image moved
         by ``amplitude_px * sin(2 pi freq_hz t + phase)`` across and 0.6 of that, a
-        quarter turn later, down (truth.json: ``camera_du_px``, ``camera_dv_px``) [None].
+        quarter turn later, down (truth.json: ``camera_du_px``, ``camera_dv_px``) [None];
+        ``post`` (at, width_px): a post (a part of the machine) standing in front of
+        everything in the front view, upright, the view's whole height, ``width_px``
+        wide, its centre at the fraction ``at`` of the view's width (truth.json:
+        ``post_hidden``, the share of the straw behind it) [None].
     Pinhole cameras (docs/synth.md, "Perspective cameras")
         ``cameras`` "orthographic" | "perspective" | "square" ["orthographic"]:
         "perspective" renders two pinhole cameras ``cam1``, ``cam2`` at
@@ -215,6 +219,7 @@ class SynthSpec:
     highlight_grey: float | None = None
     person_at_side: bool = False
     shake: tuple | None = None
+    post: tuple | None = None
 
     def __post_init__(self):
         _validate(self)
@@ -272,6 +277,8 @@ class SynthSpec:
             out.append("person")
         if self.shake is not None:
             out.append("shake")
+        if self.post is not None:
+            out.append("post")
         return tuple(out)
 
     def view_axes(self, view):
@@ -470,6 +477,12 @@ def _validate_distractors(s):
         if not (0 < sh[0] <= 20 and 0 < sh[1] <= 0.5 * s.fps):
             _fail(f"shake must be amplitude_px in (0, 20] and freq_hz in (0, fps/2 = "
                   f"{0.5 * s.fps:g}], got {list(s.shake)}")
+    if s.post is not None:
+        po = _vector("post (at, width_px)", s.post, 2)
+        if not (0 < po[0] < 1 and 0 < po[1] <= 0.5 * s.view_size("front")[0]):
+            _fail(f"post must be at in (0, 1) (a fraction of the front view's width) and "
+                  f"width_px in (0, half the view's width = "
+                  f"{0.5 * s.view_size('front')[0]:g}], got {list(s.post)}")
     if s.distractors and s.cameras != "orthographic":
         _fail(f"the distractors ({', '.join(s.distractors)}) are drawn in the orthographic "
               f"views only; cameras = {s.cameras} cannot have them")

@@ -223,6 +223,19 @@ def _distractor_truth(spec, track, info, t, view_index):
             about["person"] = {"drawn": True, "box_px": [float(v) for v in p.box],
                                "extent_px": [float(v) for v in ext],
                                "height_px": float(p.scale)}
+    if spec.post is not None:
+        if track.post is None:
+            about["post"] = {"drawn": False, "reason": "in the front view only"}
+        else:
+            box, grey = track.post
+            cov = np.array([f["coverage_px"] for f in info])
+            hidden = np.array([f["hidden_px"] for f in info])
+            cols["post_hidden"] = _json_list(np.where(cov > 0, hidden / np.where(
+                cov > 0, cov, 1.0), 0.0))
+            about["post"] = {"drawn": True, "u_px": [box.u0, box.u1], "grey": grey,
+                             "drawn_as": "in front of everything, the view's whole height; "
+                                         "post_hidden: the share of the straw's coverage "
+                                         "behind it"}
     if spec.shake is not None:
         du, dv = _distractors.camera_shift(spec, view_index, t)
         cols.update({"camera_du_px": _json_list(du), "camera_dv_px": _json_list(dv)})
@@ -313,6 +326,8 @@ DISTRACTOR_CONVENTIONS = {
                    "negative when they overlap, rider_overlap: the rendered blurred "
                    "silhouettes share a pixel) and the person (person_u_px, person_v_px "
                    "the body's centre, person_gap_px its distance to the straw) are not "
-                   "part of it; the highlight lies inside the straw's silhouette. "
+                   "part of it; the highlight lies inside the straw's silhouette; the "
+                   "post stands in front of it (post_hidden: the share of the straw's "
+                   "coverage behind it). "
                    "views.<v>.distractors describes what each view drew",
 }

@@ -23,7 +23,7 @@ from vidtrack.track._rods import OFF_AXIS_MAX, rod_fill, rodlike_run, thin_line_
 from vidtrack.track._search import search_blobs
 from vidtrack.track._segment import Segmenter
 from vidtrack.track._select import Acquirer, Tracklet
-from vidtrack.track._step import HIDDEN_PX, follow
+from vidtrack.track._step import HIDDEN_PX, follow, one_end_hidden, side_hidden
 from vidtrack.track._target import ambiguity_message, target_blob, target_index
 from vidtrack.track.background import Background, estimate_background, sample_indices
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
@@ -245,6 +245,7 @@ class Pass:
         self.lost_state = None      # (Predictor, tau) of the straw when it was lost
         self.lost_index = None      # the frame where it was lost
         self.lost_look = None       # a lost rod's Follow.look, None for any other
+        self.lost_fol = None        # the Follow of the object lost
         self.unlike_noted = set()   # first frames of the tracklets refused so
         self.last_level = float("nan")
         self.moving_frames = 0
@@ -372,7 +373,7 @@ class Pass:
         med_area = float(np.median([b.mask_area for b in tr.blobs]))
         fills = [x for x in (rod_fill(b) for b in tr.blobs) if x is not None]
         med_fill = float(np.median(fills)) if fills else None
-        for k, b in enumerate(tr.blobs):
+        for b in tr.blobs:
             if f.compact and b.silhouette is not None:
                 b.u, b.v, b.area, b.angle, b.length, b.width = b.silhouette
             if f.compact and b.shadowless is not None and self.shadow == "cut":
@@ -381,6 +382,11 @@ class Pass:
             if (not f.compact or f.rod) and b.separated is not None:
                 # a rod of both polarities: on its core's band, as followed from here
                 b.u, b.v, b.area, b.angle, b.length, b.width, b.off_axis = b.separated
+        # found again after it was lost: coming out from behind what hid it, part of it
+        # still hidden (judged against the lost object's clean frames and where they put
+        # it), and followed on with what they taught
+        out_of = self._hidden_when_found(tr, f) if self.lost_state is not None else None
+        for k, b in enumerate(tr.blobs):
             t = tr.points[k][0]
             bu, bv = b.u, b.v
             fill = rod_fill(b)
@@ -389,17 +395,56 @@ class Pass:
                 and fill < 0.8 * med_fill) or (
                     (not f.compact or f.rod) and b.off_axis > OFF_AXIS_MAX)
             # (part of it may lie, unseen, over background of its own brightness)
-            hidden = f.compact and not f.rod and b.hidden > HIDDEN_PX
+            hidden = (f.compact and not f.rod and b.hidden > HIDDEN_PX) or (
+                out_of is not None and out_of[k])
             fl = self.store(b.index, b, (MERGED if (b.merged or odd) else 0)
                             | (APPEARANCE if hidden else 0))
             self.solid[b.index] = f.compact
             self.seeded[b.index] = True
             if np.isfinite(b.level):
                 f.levels.append(b.level)
+            if out_of is not None and out_of[k]:
+                continue
             if not fl & (BORDER | MERGED) or (not odd and not fl & BORDER):
                 f.pred.add(t, bu, bv)
                 f.add(b)
+        if out_of is not None:
+            f.judged_at = tr.blobs[-1].index
         return f
+
+    def _hidden_when_found(self, tr, f):
+        """Per blob of the tracklet ``tr`` that found the lost object again: part of it
+        hidden (a rod shorter at one end, an object of any shape smaller at one side,
+        its centre off where the lost object's clean frames put it by as much as that
+        moves it; :func:`~vidtrack.track._step.one_end_hidden`, ``side_hidden``, the
+        prediction's error grown with the frames since it was lost). The new follower
+        ``f`` starts from the lost one's sizes and motion. None when the lost object's
+        clean frames are too few to say, or its kind differs."""
+        lost = self.lost_fol
+        if lost is None or lost.compact != f.compact:
+            return None
+        rod = not f.compact
+        ref = lost.ref(lost.lengths if rod else lost.covs, None)
+        if ref is None or len(lost.lengths if rod else lost.covs) < 3:
+            return None
+        err = float(np.sqrt(np.mean(np.square(lost.errors)))) if lost.errors else 1.0
+        out = []
+        for t, b in zip((pt[0] for pt in tr.points), tr.blobs):
+            got = self.lost_gate(t)
+            gap = max(1, b.index - self.lost_index + 1)
+            if got is None or not (np.isfinite(b.u) and np.isfinite(b.v)):
+                out.append(False)
+                continue
+            p = got[0]
+            out.append(one_end_hidden(b, p, ref, err * gap, lost.length_jitter) if rod
+                       else side_hidden(b, p, ref, err * gap, lost.cov_jitter))
+        if any(out):
+            for name in ("levels", "areas", "covs", "lengths", "widths", "fills",
+                         "strong_widths"):
+                getattr(f, name).extend(getattr(lost, name))
+            f.errors.extend(lost.errors)
+            f.pred = copy.deepcopy(self.lost_state[0])
+        return out
 
     def follow_back(self, t_idx, back, ahead, *, until_touch=False):
         """Follow the object from the target frame backwards to the first frame (with
@@ -515,6 +560,7 @@ class Pass:
             self.lost_index = i
             last = np.flatnonzero(self.clean[:i])
             self.lost_look = fol.look(self._background_at(last[-1]) if last.size else np.nan)
+            self.lost_fol = fol
             if fol.level is not None:
                 self.last_level = fol.level
         self.acq.reset()

@@ -130,6 +130,28 @@ def flag_grown_seeds(area, length, flags, seeds, clean, *, merged_flag, ratio=1.
     return len(bad)
 
 
+def _window(tau, size, idx, i, half, rod):
+    """``(ref, short, jitter, full)`` of frame ``i`` against the measured frames ``idx``
+    within ``half`` frames (:func:`flag_hidden_parts`), or None when it is not smaller
+    than they say or they are too few."""
+    near = idx[(np.abs(tau[idx] - tau[i]) <= half) & (idx != i)]
+    if near.size < 4:
+        return None
+    ref = float(np.percentile(size[near], 75))
+    change = np.abs(np.diff(size[near]))
+    if rod:
+        short, jitter = ref - size[i], float(np.median(change))
+        maybe = rod_shortened(short, ref, jitter)
+    else:
+        short = 1.0 - size[i] / ref
+        jitter = float(np.median(change / np.maximum(size[near][:-1], 1e-9)))
+        maybe = area_shrunk(short, jitter)
+    full = near[size[near] >= 0.95 * ref]
+    if not maybe or full.size < 4:
+        return None
+    return ref, short, jitter, full
+
+
 def flag_hidden_parts(tau, pos, size, flags, mask, *, cut_flag, angle=None, half=12):
     """Flag the clean, measured frames ``mask`` of an object that have part of it hidden.
 
@@ -156,23 +178,21 @@ def flag_hidden_parts(tau, pos, size, flags, mask, *, cut_flag, angle=None, half
         np.pad(s, half, mode="edge"), 2 * half + 1).max(axis=1)
     small = (most - s >= SHORT_PX) if rod else (s <= (1.0 - SHORT_SHARE) * most)
     for i in idx[small]:
-        near = idx[(np.abs(tau[idx] - tau[i]) <= half) & (idx != i)]
-        if near.size < 4:
+        got = _window(tau, size, idx, i, half, rod)
+        if got is not None and not ((got[3] < i).any() and (got[3] > i).any()):
+            # its full-size frames all on one side, and on the other it was lost (it
+            # went behind something whole and is coming out: partly hidden over more
+            # frames than the window): those within 3 times as far on both sides, if
+            # there are, put it, not an extrapolation
+            wide = _window(tau, size, idx, i, 3 * half, rod)
+            if wide is not None and (wide[3] < i).any() and (wide[3] > i).any():
+                far = wide[3][wide[3] < i].max() if (got[3] > i).any() else \
+                    wide[3][wide[3] > i].min()
+                if not np.isfinite(size[min(i, far) + 1:max(i, far)]).all():
+                    got = wide
+        if got is None:
             continue
-        ref = float(np.percentile(size[near], 75))
-        change = np.abs(np.diff(size[near]))
-        if rod:
-            short, jitter = ref - size[i], float(np.median(change))
-            maybe = rod_shortened(short, ref, jitter)
-        else:
-            short = 1.0 - size[i] / ref
-            jitter = float(np.median(change / np.maximum(size[near][:-1], 1e-9)))
-            maybe = area_shrunk(short, jitter)
-        if not maybe:
-            continue
-        full = near[size[near] >= 0.95 * ref]
-        if full.size < 4:
-            continue
+        ref, short, jitter, full = got
         t0 = tau[full].mean()
         a = np.vander(tau[full] - t0, 3, increasing=True)
         coef, *_ = np.linalg.lstsq(a, pos[full], rcond=None)
