@@ -130,6 +130,11 @@ class Follow:
             self.last_size = (blob.mask_area, blob.length)
 
     @property
+    def pred_error(self):
+        """RMS distance (px) of its clean frames from their prediction (1 px before any)."""
+        return float(np.sqrt(np.mean(np.square(self.errors)))) if self.errors else 1.0
+
+    @property
     def length_jitter(self):
         """Median change (px) of the length from one clean frame to the next (0 before
         two are known)."""

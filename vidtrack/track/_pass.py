@@ -427,7 +427,7 @@ class Pass:
         ref = lost.ref(lost.lengths if rod else lost.covs, None)
         if ref is None or len(lost.lengths if rod else lost.covs) < 3:
             return None
-        err = float(np.sqrt(np.mean(np.square(lost.errors)))) if lost.errors else 1.0
+        err = lost.pred_error
         out = []
         for t, b in zip((pt[0] for pt in tr.points), tr.blobs):
             got = self.lost_gate(t)

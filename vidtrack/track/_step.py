@@ -84,7 +84,7 @@ class _Step:
         speed = float(np.hypot(*vel))
         self.ref_len = ref_len = f.ref(f.lengths, 10.0)
         self.ref_w = ref_w = f.ref(f.widths, 3.0)
-        self.err = err = float(np.sqrt(np.mean(np.square(f.errors)))) if f.errors else 1.0
+        self.err = err = f.pred_error
         extra = 0.5 * f.gap * (speed + 1.0)
         # wide enough to see another straw coming before it touches this one
         self.hs = int(math.ceil(1.0 * ref_len + 2.0 * ref_w + 6.0 + 0.5 * speed + 3.0 * err

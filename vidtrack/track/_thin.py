@@ -206,42 +206,37 @@ def _ramp(x, s):
 
 
 def _strip_parts(p, xx, yy):
-    ca, sa, q, r, w1, w2, along = _along(p, xx, yy)
+    *_, r, _, _, along = _along(p, xx, yy)
     a, s = p[4], p[5]
     # the strip [-a/2, a/2] seen through the pixel's unit box: edges at r +- (a +- 1)/2
     e = [r + 0.5 * (a + 1.0), r + 0.5 * (a - 1.0), r - 0.5 * (a - 1.0), r - 0.5 * (a + 1.0)]
-    sign = (1.0, -1.0, -1.0, 1.0)
-    across = sum(g * _ramp(x, s) for g, x in zip(sign, e))
-    return ca, sa, q, r, e, sign, w1, w2, across, along
+    across = sum(g * _ramp(x, s) for g, x in zip(_EDGE_SIGNS, e))
+    return e, across, along
+
+
+#: Signs of the four blurred ramps that make a strip seen through the pixel's box.
+_EDGE_SIGNS = (1.0, -1.0, -1.0, 1.0)
 
 
 def _strip_model(p, xx, yy):
     """A line along the grid: a strip ``a`` wide (its coverage per unit length, as a
     uniform straw's) through the pixels' unit box, blurred by ``s`` across, ``s2`` along;
     exact without optics for a straw whose rows span under :data:`ALIGNED_PX`."""
-    *_, across, along = _strip_parts(p, xx, yy)
+    _, across, along = _strip_parts(p, xx, yy)
     return across * along
 
 
 def _strip_jacobian(p, xx, yy):
-    s, s2 = p[5], p[6]
-    ca, sa, q, r, e, sign, w1, w2, T, B = _strip_parts(p, xx, yy)
+    """Derivatives of :func:`_strip_model` by the segment's place across (its centre moved
+    along the normal), its width ``a`` and its blur across ``s``: the parameters
+    :func:`_across` fits."""
+    s = p[5]
+    e, _, along = _strip_parts(p, xx, yy)
     cdf = [_ndtr(x / s) for x in e]
-    pdf = [_phi(x / s) for x in e]
-    dT_dr = sum(g * c for g, c in zip(sign, cdf))
+    dT_dr = sum(g * c for g, c in zip(_EDGE_SIGNS, cdf))
     dT_da = 0.5 * (cdf[0] - cdf[1] + cdf[2] - cdf[3])
-    dT_ds = sum(g * f for g, f in zip(sign, pdf))
-    g1, g2 = _phi(w1), _phi(w2)
-    dB_dq = (g2 - g1) / s2
-    jac = np.empty((xx.size, 7))
-    jac[:, 0] = dT_dr * sa * B - T * dB_dq * ca
-    jac[:, 1] = -dT_dr * ca * B - T * dB_dq * sa
-    jac[:, 2] = -dT_dr * q * B + T * dB_dq * r
-    jac[:, 3] = T * (g1 + g2) / s2
-    jac[:, 4] = dT_da * B
-    jac[:, 5] = dT_ds * B
-    jac[:, 6] = -T * (g1 * w1 - g2 * w2) / s2
-    return jac
+    dT_ds = sum(g * _phi(x / s) for g, x in zip(_EDGE_SIGNS, e))
+    return np.column_stack([-dT_dr * along, dT_da * along, dT_ds * along])
 
 
 def _dips(xx, yy, cc, line):
@@ -319,11 +314,8 @@ def _across(x, xx, yy, cc):
     def full(q):
         return [u + q[0] * nu, v + q[0] * nv, th, h, q[1], q[2], s2]
 
-    def jac(q):
-        j = _strip_jacobian(full(q), xx, yy)
-        return np.column_stack([j[:, 0] * nu + j[:, 1] * nv, j[:, 4], j[:, 5]])
-
-    res = _least_squares(lambda q: _strip_model(full(q), xx, yy) - cc, jac,
+    res = _least_squares(lambda q: _strip_model(full(q), xx, yy) - cc,
+                         lambda q: _strip_jacobian(full(q), xx, yy),
                          [0.0, a, 0.05], [-np.inf, 0.0, _BLUR_STRIP[0]],
                          [np.inf, np.inf, _BLUR_STRIP[1]])
     return None if res is None else float(res.x[0])

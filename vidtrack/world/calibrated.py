@@ -244,11 +244,13 @@ def _at(times, t_view, uv_view, fps, *, reach=0.0):
         out[rows] = val[even]
     out[exact0] = uv_view[j - 1][exact0]
     out[exact1] = uv_view[j][exact1]
+    if not reach > 0:
+        return out
     # beside a gap: carried on from the nearest frame and its neighbour on the far side
     k = np.where(np.abs(times - t0) <= np.abs(times - t1), j - 1, j)
     d = times - t_view[k]
     far = np.where(d < 0, k + 1, k - 1)
-    ok = np.isnan(out[:, 0]) & (reach > 0) & (np.abs(d) <= reach * step) & (far >= 0) & (far < n)
+    ok = np.isnan(out[:, 0]) & (np.abs(d) <= reach * step) & (far >= 0) & (far < n)
     if ok.any():
         kk, ff, dd = k[ok], far[ok], d[ok]
         gap = t_view[kk] - t_view[ff]
