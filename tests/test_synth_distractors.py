@@ -47,16 +47,6 @@ CASES = {
     "post": (["--post", "0.6,10"], ()),
 }
 
-#: Cases the tracker fails, with what was measured (none: the dark straw with its
-#: highlight passes since a rod of both polarities is measured by its convex body).
-_XFAIL = {
-    "post": "2 front frames over 0.5 px (0.77): one 18 % hidden at its side going in "
-            "(the rod narrows, it does not shorten), one 4 % hidden coming out (under "
-            "the 5 % judged); k1..k4 within 0.8 %. Before the frames that found the "
-            "lost straw again were judged: 23 frames coming out unflagged up to 15.4 px "
-            "off, k1 28 % off, exit 0",
-}
-
 #: The least share of a view's frames that stays unflagged (0.5 unless given): the dark
 #: straw with its highlight and a rider along it keeps 327 and 181 of 372 (the top view's
 #: highlight, too thin to survive the detections' erosion, leaves frames measured by
@@ -64,13 +54,6 @@ _XFAIL = {
 #: flagged). Before the rod's core band (measure_mixed), 40 and 84 unflagged frames were
 #: kept at a median 2.4 and 1.9 px off, pulled towards the rider.
 _LEAST = {"dark_highlight_riding": 0.45}
-
-
-def _case_param(name):
-    marks = []
-    if name in _XFAIL:
-        marks.append(pytest.mark.xfail(strict=True, reason=_XFAIL[name]))
-    return pytest.param(name, marks=marks, id=name)
 
 
 # ---------------------------------------------------------------------------- render only
@@ -326,7 +309,7 @@ def _unflagged(run):
     return out
 
 
-@pytest.mark.parametrize("name", [_case_param(n) for n in CASES])
+@pytest.mark.parametrize("name", list(CASES))
 def test_fit_against_truth(fitted, name):
     run, res = fitted(name)
     assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
@@ -454,33 +437,36 @@ THIN = {
     "crossing": (["--rider", "crossing"], 0.5),
     "shadow": (["--shadow", "4,0.4,1.5"], 0.5),
     "hard": (["--shadow", "4,0.4,1.5", "--rider", "crossing", "--person-at-side"], 0.4),
+    # a post narrower than the straw: never hidden whole, it is cut in two pieces
+    "post": (["--post", "0.6,6"], 0.5),
 }
 
-#: Cases the tracker fails at this scale, with what was measured.
-_THIN_XFAIL = {
-    "post": "2 front frames over 0.5 px (0.77): one 18 % hidden at its side going in "
-            "(the rod narrows, it does not shorten), one 4 % hidden coming out (under "
-            "the 5 % judged); k1..k4 within 0.8 %. Before the frames that found the "
-            "lost straw again were judged: 23 frames coming out unflagged up to 15.4 px "
-            "off, k1 28 % off, exit 0",
-}
-
-
-def test_a_straw_coming_out_from_behind_the_post_is_not_taken_at_its_visible_part(fitted):
-    """The straw (45 px long) goes behind a 10 px post, is lost there and comes out over
-    23 frames. Those frames were taken unflagged at their visible part's centre, up to
-    15.4 px off, and k1 was 28 % off (exit 0). Now they are judged against the lost
-    straw's clean frames (the case above still fails its 0.5 px: 2 frames at 0.77)."""
-    run, res = fitted("post")
-    assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
+def _hidden_by_the_post(run):
+    """(frames with at least 5 % of the straw behind the post, frames it goes behind at
+    all, the unflagged front frames' errors by frame)."""
     truth = json.loads((run / "truth.json").read_text())
     tab = truth["views"]["front"]["per_frame"]
-    hidden = {i for i, h in enumerate(tab["post_hidden"]) if h > 0.02}
-    assert len(hidden) >= 20                       # it does go behind the post
-    errs = [math.hypot(u - tab["u_coverage_px"][i], v - tab["v_coverage_px"][i])
-            for i, u, v in _unflagged(run)["front"]]
-    assert max(errs) < 1.0, max(errs)
-    assert_k_within(json.loads(res.stdout), truth["truth"]["k"])
+    share = np.asarray(tab["post_hidden"], float)
+    errs = {i: math.hypot(u - tab["u_coverage_px"][i], v - tab["v_coverage_px"][i])
+            for i, u, v in _unflagged(run)["front"]}
+    return set(np.flatnonzero(share >= 0.05)), set(np.flatnonzero(share > 0.02)), errs
+
+
+def test_a_straw_going_behind_the_post_and_out_is_flagged_while_part_of_it_is_hidden(
+        fitted):
+    """The straw (45 px long, 3.4 px thick, turning) goes behind a 10 px post, is lost
+    there and comes out. 5 % of a 34 px straw hidden at an end moves its centroid 0.8 px:
+    no frame that far behind is kept. Going in, the post first cuts its side (its length
+    kept, 18 % of it hidden: 0.77 px); coming out, the lost straw's prediction over the
+    frames it was hidden is 1.4 px off, and a straw still growing at a stroke is still
+    coming out. Before: 23 frames coming out unflagged up to 15.4 px off, k1 28 % off,
+    exit 0 (418509c: 2 frames at 0.77 px)."""
+    run, res = fitted("post")
+    assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
+    behind, touched, errs = _hidden_by_the_post(run)
+    assert len(touched) >= 20                      # it does go behind the post
+    assert not behind & set(errs), sorted(behind & set(errs))
+    assert max(errs.values()) < 0.25, max(errs.values())
 
 
 @pytest.fixture(scope="module")
@@ -499,14 +485,7 @@ def fitted_thin(tmp_path_factory):
     return get
 
 
-def _thin_param(name):
-    marks = []
-    if name in _THIN_XFAIL:
-        marks.append(pytest.mark.xfail(strict=True, reason=_THIN_XFAIL[name]))
-    return pytest.param(name, marks=marks, id=name)
-
-
-@pytest.mark.parametrize("name", [_thin_param(n) for n in THIN])
+@pytest.mark.parametrize("name", list(THIN))
 def test_thin_straw_at_the_default_scale(fitted_thin, name):
     """Both views tracked in most frames, every unflagged frame within 0.5 px of the
     straw's own coverage centroid, k as tolerated. Before the thin straw's rules
@@ -528,3 +507,18 @@ def test_thin_straw_at_the_default_scale(fitted_thin, name):
         bad = [b for b in bad if b[1] > 0.5]
         assert not bad, f"{view}: {len(bad)} unflagged frames > 0.5 px off: {bad[:10]}"
     assert_k_within(record, truth["truth"]["k"])
+
+
+def test_a_straw_cut_in_two_by_a_post_narrower_than_it_is_flagged(fitted_thin):
+    """At the default scale the straw (19 px) is longer than a 6 px post: never hidden
+    whole, it shows as two pieces either side of it (measured as one, 23 px long with 40 %
+    of its coverage: narrower than a straw is), then as one piece. Before: a frame of two
+    pieces followed a run of merged ones, was not judged and was kept unflagged 2.9 px
+    off (flagged by its narrowness alone, the run broke there and 3 frames after it were
+    kept 4-5 px off)."""
+    run, res = fitted_thin("post")
+    assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
+    behind, touched, errs = _hidden_by_the_post(run)
+    assert len(touched) >= 20
+    assert not behind & set(errs), sorted(behind & set(errs))
+    assert max(errs.values()) < 0.25, max(errs.values())

@@ -50,8 +50,14 @@ class Follow:
         self.last_size = None
         self.smooth = True
         self.cut_at = -10 ** 9           # the last frame with something beyond its band
-        # the last frame that was clean, or of a run of them with one end hidden since
+        # the last frame that was clean, and the last of the run of frames found one
+        # after the other since (each judged for a part hidden)
+        self.clean_at = -10 ** 9
         self.judged_at = -10 ** 9
+        # found again coming out from behind something, part of it still hidden: (frame,
+        # length, coverage) of the last such frame; it is still coming out while it grows
+        # at a stroke from frame to frame (:meth:`coming_out`)
+        self.emerging = None
         # an object of both polarities (segmented so), and one measured by its
         # silhouette (anything but a rod: the coverage by one grey level is a rod's)
         self.mixed = False
@@ -156,6 +162,25 @@ class Follow:
         :data:`~vidtrack.track._thin.THIN_PX` wide (3 of them at least)."""
         return len(self.strong_widths) >= 3 and \
             statistics.median(self.strong_widths) < THIN_PX
+
+    def coming_out(self, i, blob, rod):
+        """Frame ``i``'s ``blob`` of an object found again partly hidden (:attr:`emerging`)
+        is still coming out: the frame follows the last such one and the object grew
+        since by more than 3 times its clean frames' change from one to the next (a rod's
+        length, at least 0.1 px; any other's coverage, at least 1 %). A frame that does
+        not ends it."""
+        if self.emerging is None:
+            return False
+        at, length, cov = self.emerging
+        if rod:
+            grew = blob.length - length >= max(3.0 * self.length_jitter, 0.1)
+        else:
+            grew = blob.area / max(cov, 1e-9) - 1.0 >= max(3.0 * self.cov_jitter, 0.01)
+        if i - at != 1 or not grew:
+            self.emerging = None
+            return False
+        self.emerging = (i, blob.length, blob.area)
+        return True
 
     def look(self, background):
         """``(grey level, width, contrast)`` of a rod from its clean frames (``background``:

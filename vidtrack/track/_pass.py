@@ -408,8 +408,12 @@ class Pass:
             if not fl & (BORDER | MERGED) or (not odd and not fl & BORDER):
                 f.pred.add(t, bu, bv)
                 f.add(b)
+                f.clean_at = b.index
         if out_of is not None:
             f.judged_at = tr.blobs[-1].index
+            last = tr.blobs[-1]
+            if out_of[-1]:
+                f.emerging = (last.index, last.length, last.area)
         return f
 
     def _hidden_when_found(self, tr, f):
@@ -443,6 +447,7 @@ class Pass:
                          "strong_widths"):
                 getattr(f, name).extend(getattr(lost, name))
             f.errors.extend(lost.errors)
+            f.clean_at = lost.clean_at
             f.pred = copy.deepcopy(self.lost_state[0])
         return out
 
@@ -722,6 +727,9 @@ class Pass:
         # frames partly hidden (a rod short at one end)
         _refine.flag_hidden_parts(tau, pos, length, flags, ~solid & (flags == 0),
                                   cut_flag=APPEARANCE, angle=self.angle)
+        # (or at a corner or a side, its length kept)
+        _refine.flag_hidden_parts(tau, pos, area, flags, ~solid & (flags == 0),
+                                  cut_flag=APPEARANCE, reach=0.5 * length)
         _refine.flag_hidden_parts(tau, pos, area, flags, solid & (flags == 0),
                                   cut_flag=APPEARANCE)
         scatter = _refine.flag_outliers(tau, pos, flags, clean_mask=flags == 0,

@@ -152,11 +152,13 @@ def _window(tau, size, idx, i, half, rod):
     return ref, short, jitter, full
 
 
-def flag_hidden_parts(tau, pos, size, flags, mask, *, cut_flag, angle=None, half=12):
+def flag_hidden_parts(tau, pos, size, flags, mask, *, cut_flag, angle=None, reach=None,
+                      half=12):
     """Flag the clean, measured frames ``mask`` of an object that have part of it hidden.
 
     ``size``: a rod's length (with its ``angle``), or the coverage of an object of any
-    shape (``angle`` None). For each frame, the frames of the mask within ``half`` frames
+    shape (``angle`` None; a rod's coverage with ``reach``, half its length per frame:
+    a corner or a side of it hidden). For each frame, the frames of the mask within ``half`` frames
     give its size (their 75th percentile: it may come out from behind something on one
     side only) and how much that changes from one to the next; when it is smaller
     (:func:`~vidtrack.track._rods.end_hidden`, :func:`~vidtrack.track._rods.hidden_side`),
@@ -206,7 +208,8 @@ def flag_hidden_parts(tau, pos, size, flags, mask, *, cut_flag, angle=None, half
             along = off[0] * np.cos(angle[i]) + off[1] * np.sin(angle[i])
             hidden = end_hidden(along, short, ref, err, jitter)
         else:
-            hidden = hidden_side(float(np.hypot(*off)), short, ref, err, jitter)
+            hidden = hidden_side(float(np.hypot(*off)), short, ref, err, jitter,
+                                 None if reach is None else reach[i])
         if hidden:
             bad.append(i)
     flags[bad] |= cut_flag

@@ -56,6 +56,10 @@ END_SHIFT = 0.25
 #: An object of any shape that lost at least this share of its area is looked at for a
 #: part hidden at one side (:func:`hidden_side`).
 SHORT_SHARE = 0.05
+#: A rod's coverage per unit length (its width times its contrast) is kept as it turns
+#: and moves; a frame with less than this share of its clean frames' has part of it
+#: hidden at a side, or is pieces of it either side of something before it.
+NARROW = 0.7
 #: A rod measured on its own band (something attached cut away) is kept when its length
 #: and width are within these fractions of its clean frames'.
 ALONE_LENGTH_TOL = 0.10
@@ -186,17 +190,20 @@ def end_hidden(along, short, ref_len, err, jitter):
                 & (off <= (1.0 - END_SHIFT) * short + err))
 
 
-def hidden_side(off, lost, area, err, jitter):
+def hidden_side(off, lost, area, err, jitter, reach=None):
     """An object of any shape of area ``area`` (px^2) that lost a share ``lost`` of it,
     its centroid ``off`` (px) from where its clean frames put it, their scatter ``err``
     (px) and the relative change of their area from one to the next ``jitter``: part of
     it hidden at one side. Hidden behind a straight edge, a disc of radius R that lost a
     share s has its centroid moved by s / (1 - s) times the hidden part's distance from
     its centre, 0.42 R (half of it) to R (a sliver); shrinking as it turns, about its
-    centre. Lost at least :data:`SHORT_SHARE` (and 3 times ``jitter``), moved at least
-    a tenth of the least and at most the most (give or take 3 times ``err``)."""
+    centre. ``reach`` (px) is the farthest its part can lie from its centre (a disc's
+    radius unless given: half a rod's length, whose corner or side may be hidden with
+    its length kept). Lost at least :data:`SHORT_SHARE` (and 3 times ``jitter``), moved
+    at least a tenth of the least and at most the most (give or take 3 times ``err``)."""
     lost = np.asarray(lost, float)
-    r = np.sqrt(np.asarray(area, float) / np.pi)
+    r = np.sqrt(np.asarray(area, float) / np.pi) if reach is None else \
+        np.asarray(reach, float)
     err = 3.0 * np.asarray(err, float)
     with np.errstate(invalid="ignore", divide="ignore"):
         most = r * lost / np.maximum(1.0 - lost, 1e-6)

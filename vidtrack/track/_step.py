@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from vidtrack.track._flags import APPEARANCE, BORDER, MERGED
-from vidtrack.track._rods import (FILL_MIN, FILL_SEPARATE, FILL_WIDTH_MIN, OFF_AXIS_MAX,
+from vidtrack.track._rods import (FILL_MIN, FILL_SEPARATE, FILL_WIDTH_MIN, NARROW, OFF_AXIS_MAX,
                                   SEPARATE_FRAMES, WIDTH_GROWN,
                                   attached_across, end_hidden, hidden_side, rod_alone, rod_fill)
 from vidtrack.track._coverage import measure, shade_background
@@ -56,13 +56,14 @@ def one_end_hidden(b, p, ref_len, err, jitter):
     return bool(end_hidden(along, ref_len - b.length, ref_len, err, jitter))
 
 
-def side_hidden(b, p, ref_cov, err, jitter):
-    """An object of any shape ``b`` lost part of its area at one side (behind something in
-    front of it), going by its prediction ``p`` (px), its clean frames' coverage
-    ``ref_cov`` (px^2) and its relative change from one to the next ``jitter``, and the
-    prediction's RMS error ``err`` (px) (:func:`~vidtrack.track._rods.side_hidden`)."""
+def side_hidden(b, p, ref_cov, err, jitter, reach=None):
+    """An object ``b`` lost part of its area at one side (behind something in front of
+    it), going by its prediction ``p`` (px), its clean frames' coverage ``ref_cov``
+    (px^2) and its relative change from one to the next ``jitter``, and the prediction's
+    RMS error ``err`` (px); ``reach``: the farthest (px) its part lies from its centre,
+    half a rod's length (:func:`~vidtrack.track._rods.hidden_side`)."""
     return bool(hidden_side(math.hypot(b.u - p[0], b.v - p[1]), 1.0 - b.area / ref_cov,
-                            ref_cov, err, jitter))
+                            ref_cov, err, jitter, reach))
 
 
 def _only_fainter(reg, others, p, reach, own_peak):
@@ -384,18 +385,29 @@ class _Step:
         odd = (not same and ref_cov is not None and len(f.covs) >= 3
                and b.area < 0.65 * ref_cov and f.last_cov is not None
                and b.area < 0.8 * f.last_cov)
+        # a rod narrower than it is: its coverage per unit length is kept as it turns
+        # (pieces of it either side of a post measure long and thin)
+        odd = odd or (not same and rod_shape and ref_cov is not None and len(f.covs) >= 3
+                      and len(f.lengths) >= 3 and b.area < NARROW * b.length * ref_cov / ref_len)
         # a rod shortened at one end: part of it hidden behind something before it (its
-        # centroid lags or leads its centre), not turning. Judged only in a run of frames
-        # that follows a clean one (the prediction over a gap is not that good)
+        # centroid lags or leads its centre), not turning; a rod or any object that lost
+        # part of its coverage at a side or a corner (a rod's length kept). Judged only
+        # in a run of frames found one after the other since a clean one (not over a
+        # gap), the prediction's error grown with the frames since that one
+        err = self.err * max(1, abs(i - f.clean_at))
         cut = (not same and abs(i - f.judged_at) == 1 and (
             (rod_shape and len(f.lengths) >= 3
-             and one_end_hidden(b, p, ref_len, self.err, f.length_jitter))
-            or (not rod_shape and ref_cov is not None and len(f.covs) >= 3
-                and side_hidden(b, p, ref_cov, self.err, f.cov_jitter))))
-        odd = odd or cut
+             and one_end_hidden(b, p, ref_len, err, f.length_jitter))
+            or (ref_cov is not None and len(f.covs) >= 3
+                and side_hidden(b, p, ref_cov, err, f.cov_jitter,
+                                0.5 * ref_len if rod_shape else None))))
+        # found again partly hidden and still growing at a stroke: still coming out
+        # (the prediction over the frames it was lost cannot say by how much)
+        coming = not same and f.coming_out(i, b, rod_shape)
+        odd = odd or cut or coming
         f.last_cov = b.area
         fl = store(i, b, fl | (MERGED if same else 0) | (APPEARANCE if odd else 0))
-        if cut or fl == 0:
+        if fl == 0 or abs(i - f.judged_at) == 1:
             f.judged_at = i
         ps.solid[i] = f.compact
         if same or odd or (fl & BORDER):
@@ -411,6 +423,7 @@ class _Step:
             f.relearn()
             same = False
         if not same and not odd and not (fl & BORDER):
+            f.clean_at = i
             f.errors.append(float(np.hypot(b.u - p[0], b.v - p[1])))
             f.pred.add(tau[i], b.u, b.v)
             f.add(b)
