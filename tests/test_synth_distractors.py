@@ -45,6 +45,7 @@ CASES = {
                                "--rider", "riding"], ("rider",)),
     "person": (["--person-at-side"], ("person",)),
     "post": (["--post", "0.6,10"], ()),
+    "arm": (["--post", "0.6,10,-1.5"], ()),
 }
 
 #: The least share of a view's frames that stays unflagged (0.5 unless given): the dark
@@ -238,6 +239,34 @@ def test_post_stands_in_front_of_everything_in_the_front_view(tmp_path, plain):
     assert u0 < on < u1
 
 
+def test_a_moving_post_is_where_truth_says_in_every_frame(tmp_path, plain):
+    """A post moving 1.5 px a frame (an arm passing before the camera): in every frame
+    its whole pixels have its grey and the columns beside it are the run without it; it
+    sweeps over the straw (partly hidden in some frames) and is not in the first
+    frame's columns when it has left them."""
+    out, truth = _render(tmp_path, post=(0.6, 10.0, -1.5))
+    about = truth["views"]["front"]["distractors"]["post"]
+    assert about["speed_px_per_frame"] == -1.5
+    tab = truth["views"]["front"]["per_frame"]
+    centre = np.asarray(tab["post_u_px"], float)
+    n = centre.size
+    assert centre[n // 2] == pytest.approx(0.6 * 319 - 0.75, abs=1e-9)   # (n even)
+    assert np.allclose(np.diff(centre), -1.5)
+    hidden = np.asarray(tab["post_hidden"], float)
+    assert ((hidden > 0.02) & (hidden < 0.98)).sum() >= 4
+    with_, without = _frames(out, "front"), _frames(plain, "front")
+    cols = np.arange(with_.shape[2])
+    for i in range(0, n, 7):
+        u0, u1 = centre[i] - 5.0, centre[i] + 5.0
+        inside = (cols >= np.ceil(u0 + 0.5) + 1) & (cols <= np.floor(u1 - 0.5) - 1)
+        # (its motion over the exposure blurs its edges by 0.75 px either way)
+        if inside.any():
+            assert np.abs(with_[i][:, inside] - 255 * about["grey"]).max() < 10.5, i
+        beside = (cols < np.floor(u0 - 0.5) - 1) | (cols > np.ceil(u1 + 0.5) + 1)
+        assert np.array_equal(with_[i][:, beside], without[i][:, beside]), i
+    assert np.array_equal(_frames(out, "top"), _frames(plain, "top"))
+
+
 def test_off_by_default_and_deterministic(tmp_path):
     spec = SynthSpec()
     d = spec.to_dict()
@@ -270,7 +299,8 @@ def test_run42_is_rendered_byte_for_byte_as_bundled(tmp_path, vidtrack_cli):
 
 @pytest.mark.parametrize("bad", [["--shadow", "0,0.4,1"], ["--shadow", "4,1.5,1"],
                                  ["--highlight", "0.86"], ["--post", "1.2,8"],
-                                 ["--post", "0.5,0"],
+                                 ["--post", "0.5,0"], ["--post", "0.5,8,300"],
+                                 ["--post", "0.5,8,1,2"],
                                  ["--rider", "riding", "--cameras", "perspective"]])
 def test_bad_distractor_options_exit_2(tmp_path, vidtrack_cli, bad):
     out = tmp_path / "bad"
@@ -441,15 +471,20 @@ THIN = {
     "post": (["--post", "0.6,6"], 0.5),
 }
 
-def _hidden_by_the_post(run):
-    """(frames with at least 5 % of the straw behind the post, frames it goes behind at
-    all, the unflagged front frames' errors by frame)."""
+def _check_behind_the_post(run, res, touched):
+    """The fit went through; the straw went behind the post in ``touched`` frames or
+    more; no front frame with 5 % of it behind the post is unflagged, and the unflagged
+    ones lie within 0.25 px of the straw's coverage centroid."""
+    assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
     truth = json.loads((run / "truth.json").read_text())
     tab = truth["views"]["front"]["per_frame"]
     share = np.asarray(tab["post_hidden"], float)
     errs = {i: math.hypot(u - tab["u_coverage_px"][i], v - tab["v_coverage_px"][i])
             for i, u, v in _unflagged(run)["front"]}
-    return set(np.flatnonzero(share >= 0.05)), set(np.flatnonzero(share > 0.02)), errs
+    assert (share > 0.02).sum() >= touched
+    behind = set(np.flatnonzero(share >= 0.05))
+    assert not behind & set(errs), sorted(behind & set(errs))
+    assert max(errs.values()) < 0.25, max(errs.values())
 
 
 def test_a_straw_going_behind_the_post_and_out_is_flagged_while_part_of_it_is_hidden(
@@ -461,12 +496,7 @@ def test_a_straw_going_behind_the_post_and_out_is_flagged_while_part_of_it_is_hi
     frames it was hidden is 1.4 px off, and a straw still growing at a stroke is still
     coming out. Before: 23 frames coming out unflagged up to 15.4 px off, k1 28 % off,
     exit 0 (418509c: 2 frames at 0.77 px)."""
-    run, res = fitted("post")
-    assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
-    behind, touched, errs = _hidden_by_the_post(run)
-    assert len(touched) >= 20                      # it does go behind the post
-    assert not behind & set(errs), sorted(behind & set(errs))
-    assert max(errs.values()) < 0.25, max(errs.values())
+    _check_behind_the_post(*fitted("post"), 20)
 
 
 @pytest.fixture(scope="module")
@@ -509,6 +539,15 @@ def test_thin_straw_at_the_default_scale(fitted_thin, name):
     assert_k_within(record, truth["truth"]["k"])
 
 
+def test_a_straw_an_arm_passes_before_is_flagged_while_part_of_it_is_hidden(fitted):
+    """A 10 px post sweeping 1.5 px a frame across the straw's path (an arm passing
+    before the camera), up to 65 % of the straw behind it over 15 frames: every frame
+    5 % behind it or more flagged. Before, the first frame after it had passed, 4 %
+    behind it, was kept 0.51 px off: only full-size frames after it could put it (the
+    frames before were flagged), and an extrapolation from 8 of them said too little."""
+    _check_behind_the_post(*fitted("arm"), 10)
+
+
 def test_a_straw_cut_in_two_by_a_post_narrower_than_it_is_flagged(fitted_thin):
     """At the default scale the straw (19 px) is longer than a 6 px post: never hidden
     whole, it shows as two pieces either side of it (measured as one, 23 px long with 40 %
@@ -516,9 +555,4 @@ def test_a_straw_cut_in_two_by_a_post_narrower_than_it_is_flagged(fitted_thin):
     pieces followed a run of merged ones, was not judged and was kept unflagged 2.9 px
     off (flagged by its narrowness alone, the run broke there and 3 frames after it were
     kept 4-5 px off)."""
-    run, res = fitted_thin("post")
-    assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
-    behind, touched, errs = _hidden_by_the_post(run)
-    assert len(touched) >= 20
-    assert not behind & set(errs), sorted(behind & set(errs))
-    assert max(errs.values()) < 0.25, max(errs.values())
+    _check_behind_the_post(*fitted_thin("post"), 20)

@@ -26,14 +26,18 @@ examples:
 
 
 def _floats(n, what):
+    """A parser of ``n`` comma-separated numbers (or any count of the tuple ``n``)."""
+    counts = n if isinstance(n, tuple) else (n,)
+    said = " or ".join(str(c) for c in counts)
+
     def parse(text):
         try:
             values = tuple(float(v) for v in text.split(","))
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected {n} comma-separated numbers "
+            raise argparse.ArgumentTypeError(f"expected {said} comma-separated numbers "
                                              f"({what}), got {text!r}") from None
-        if len(values) != n:
-            raise argparse.ArgumentTypeError(f"expected {n} comma-separated numbers "
+        if len(values) not in counts:
+            raise argparse.ArgumentTypeError(f"expected {said} comma-separated numbers "
                                              f"({what}), got {len(values)} in {text!r}")
         return values
     return parse
@@ -196,11 +200,13 @@ def add_arguments(parser):
                    metavar="AMPLITUDE_PX,FREQ_HZ",
                    help="the cameras vibrate: each whole image moved by up to AMPLITUDE_PX "
                         "at FREQ_HZ (default: still), e.g. 1.5,9")
-    g.add_argument("--post", type=_floats(2, "at,width_px"), default=None,
-                   metavar="AT,WIDTH_PX",
+    g.add_argument("--post", type=_floats((2, 3), "at,width_px[,speed_px]"), default=None,
+                   metavar="AT,WIDTH_PX[,SPEED_PX]",
                    help="a post in front of everything in the front view, upright, "
                         "WIDTH_PX wide, its centre at the fraction AT of the view's width "
-                        "(default: none), e.g. 0.6,8")
+                        "in the middle frame; with SPEED_PX it moves that many px a frame "
+                        "(rightwards when positive: an arm passing) (default: none), "
+                        "e.g. 0.6,8 or 0.6,10,-1.5")
     g = p.add_argument_group("output")
     g.add_argument("--format", default="avi", choices=("avi", "png", "cine"),
                    help="footage: AVI video (default), png image folders or Phantom .cine")

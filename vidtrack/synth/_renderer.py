@@ -35,7 +35,8 @@ import numpy as np
 from vidtrack.synth import _distractors, _raster
 from vidtrack.synth._views import (_GREY, _HUB_RADIUS_M, _SHAFT_HALF_LENGTH_M,
                                    _SHAFT_HALF_WIDTH_M, _TOOTH_HALF_BREADTH_M,
-                                   _TOOTH_HALF_WIDTH_M, _frame_times, post_box)
+                                   _TOOTH_HALF_WIDTH_M, _frame_times, post_box,
+                                   post_speed)
 
 from vidtrack.synth.motion import _second_pose, straw_pose
 from vidtrack.synth.spec import VIEW_NAMES
@@ -81,6 +82,7 @@ class _ViewTrack:
         n, kk = self.t.size, self.kk
         self.level = spec.straw_level
         self.post = post_box(spec, view)
+        self.post_moves = self.post is not None and post_speed(spec) != 0.0
         self.shadow_px = (None if spec.shadow is None
                           else _distractors.shadow_offset_px(spec))
         self.rider = spec.rider is not None
@@ -154,7 +156,10 @@ class _ViewTrack:
         if spec.highlight_grey is not None:
             out.append(("highlight", _distractors.highlight_capsule(
                 self.sub_a[i, j], self.sub_b[i, j], self.radius_px), spec.highlight_grey))
-        if self.post is not None:
+        if self.post_moves:
+            # in front of everything, where it is at this sample of the exposure
+            out.append(("post",) + post_box(spec, view, float(self.ts[i, j])))
+        elif self.post is not None:
             # in front of everything: the static image has it; drawn again over what
             # moves behind it (the part of it beside that, with a margin)
             box, grey = self.post
@@ -248,6 +253,11 @@ class _ViewRenderer:
                                                         supersample=spec.supersample,
                                                         cache=self._cache)
                 acc += painted
+                if getattr(track, "post_moves", False) and "straw" in covers:
+                    # (the straw behind the post where it is at this sample)
+                    sub, c = covers["straw"]
+                    box = next(ly[1] for ly in layers if ly[0] == "post")
+                    facts["hidden_px"] += float((c * _raster.box_coverage(box, sub)).sum()) / kk
                 for key, (sub, c) in covers.items():
                     name = "blade" if key in ("tooth0", "tooth1", "hub", "shaft") else key
                     if name not in cov:
@@ -257,7 +267,7 @@ class _ViewRenderer:
             if "straw" in cov:
                 straw = cov["straw"] / kk
                 facts["coverage_px"] += float(straw.sum())
-                if getattr(track, "post", None) is not None:
+                if getattr(track, "post", None) is not None and not track.post_moves:
                     facts["hidden_px"] += float(
                         (straw * _raster.box_coverage(track.post[0], roi)).sum())
                 facts["moment_u"] += float((straw.sum(axis=0) * np.arange(roi.c0, roi.c1)).sum())

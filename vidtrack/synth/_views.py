@@ -204,7 +204,7 @@ def _static_image(spec, view):
     if spec.draw_ruler:
         paint.extend(_ruler_boxes(view))
     post = post_box(spec, view)
-    if post is not None:
+    if post is not None and post_speed(spec) == 0.0:      # a moving one is drawn per frame
         paint.append(post)
     for shape, grey in paint:
         cov = _raster.box_coverage(shape, whole)
@@ -212,13 +212,23 @@ def _static_image(spec, view):
     return img
 
 
-def post_box(spec, view):
-    """The post standing in front of everything (``SynthSpec.post``) as (Box, grey): the
-    front view's whole height; None in the other views or without one."""
+def post_speed(spec):
+    """The post's speed (px a frame, rightwards; 0: it stands) (``SynthSpec.post``)."""
+    return 0.0 if spec.post is None or len(spec.post) < 3 else float(spec.post[2])
+
+
+def post_box(spec, view, t=None):
+    """The post in front of everything (``SynthSpec.post``) as (Box, grey) at the time
+    ``t`` (s, the frames' clock; the middle frame's when None): the front view's whole
+    height; None in the other views or without one. Its centre is at the fraction
+    ``at`` of the view's width in the middle frame, and moves ``speed`` px a frame."""
     if spec.post is None or view.name != "front":
         return None
-    at, width = (float(x) for x in spec.post)
+    at, width = float(spec.post[0]), float(spec.post[1])
     u = at * (view.width - 1.0)
+    if t is not None:
+        frame = (t - view.delay_s) * spec.fps + spec.release_frame
+        u += post_speed(spec) * (frame - 0.5 * (spec.n_frames - 1))
     return _raster.Box(u - 0.5 * width, u + 0.5 * width, -0.5, view.height - 0.5), _GREY["post"]
 
 

@@ -132,10 +132,12 @@ class SynthSpec:
         ``shake`` (amplitude_px, freq_hz): each camera vibrates, its whole image moved
         by ``amplitude_px * sin(2 pi freq_hz t + phase)`` across and 0.6 of that, a
         quarter turn later, down (truth.json: ``camera_du_px``, ``camera_dv_px``) [None];
-        ``post`` (at, width_px): a post (a part of the machine) standing in front of
+        ``post`` (at, width_px[, speed_px]): a post (a part of the machine) in front of
         everything in the front view, upright, the view's whole height, ``width_px``
-        wide, its centre at the fraction ``at`` of the view's width (truth.json:
-        ``post_hidden``, the share of the straw behind it) [None].
+        wide, its centre at the fraction ``at`` of the view's width in the middle frame;
+        standing, or moving ``speed_px`` a frame (rightwards when positive: a hand or an
+        arm passing before the camera) (truth.json: ``post_hidden``, the share of the
+        straw behind it; ``post_u_px`` when it moves) [None].
     Pinhole cameras (docs/synth.md, "Perspective cameras")
         ``cameras`` "orthographic" | "perspective" | "square" ["orthographic"]:
         "perspective" renders two pinhole cameras ``cam1``, ``cam2`` at
@@ -478,11 +480,14 @@ def _validate_distractors(s):
             _fail(f"shake must be amplitude_px in (0, 20] and freq_hz in (0, fps/2 = "
                   f"{0.5 * s.fps:g}], got {list(s.shake)}")
     if s.post is not None:
-        po = _vector("post (at, width_px)", s.post, 2)
-        if not (0 < po[0] < 1 and 0 < po[1] <= 0.5 * s.view_size("front")[0]):
-            _fail(f"post must be at in (0, 1) (a fraction of the front view's width) and "
+        n = 3 if np.size(s.post) == 3 else 2
+        po = _vector("post (at, width_px[, speed_px])", s.post, n)
+        if not (0 < po[0] < 1 and 0 < po[1] <= 0.5 * s.view_size("front")[0]
+                and (n == 2 or abs(po[2]) <= 0.5 * s.view_size("front")[0])):
+            _fail(f"post must be at in (0, 1) (a fraction of the front view's width), "
                   f"width_px in (0, half the view's width = "
-                  f"{0.5 * s.view_size('front')[0]:g}], got {list(s.post)}")
+                  f"{0.5 * s.view_size('front')[0]:g}] and speed_px (a frame) at most that "
+                  f"either way, got {list(s.post)}")
     if s.distractors and s.cameras != "orthographic":
         _fail(f"the distractors ({', '.join(s.distractors)}) are drawn in the orthographic "
               f"views only; cameras = {s.cameras} cannot have them")

@@ -182,15 +182,16 @@ def flag_hidden_parts(tau, pos, size, flags, mask, *, cut_flag, angle=None, reac
     for i in idx[small]:
         got = _window(tau, size, idx, i, half, rod)
         if got is not None and not ((got[3] < i).any() and (got[3] > i).any()):
-            # its full-size frames all on one side, and on the other it was lost (it
-            # went behind something whole and is coming out: partly hidden over more
-            # frames than the window): those within 3 times as far on both sides, if
-            # there are, put it, not an extrapolation
+            # its full-size frames all on one side, and on the other none is clean up
+            # to the nearest of them (it went behind something whole, or something
+            # passed before it, and is coming out: partly hidden over more frames than
+            # the window): those within 3 times as far on both sides, if there are, put
+            # it, not an extrapolation
             wide = _window(tau, size, idx, i, 3 * half, rod)
             if wide is not None and (wide[3] < i).any() and (wide[3] > i).any():
                 far = wide[3][wide[3] < i].max() if (got[3] > i).any() else \
                     wide[3][wide[3] > i].min()
-                if not np.isfinite(size[min(i, far) + 1:max(i, far)]).all():
+                if not ((idx > min(i, far)) & (idx < max(i, far))).any():
                     got = wide
         if got is None:
             continue

@@ -162,9 +162,7 @@ def rod_shortened(short, ref_len, jitter):
     length changes by ``jitter`` (px, median) from one to the next, is short enough to
     be looked at for an end hidden (:data:`SHORT_PX`). Arrays or scalars."""
     with np.errstate(invalid="ignore"):
-        return np.asarray(short, float) >= np.maximum(
-            np.maximum(SHORT_PX, 0.05 * np.asarray(ref_len, float)),
-            3.0 * np.asarray(jitter, float))
+        return np.asarray(short, float) >= np.maximum(SHORT_PX, 3.0 * np.asarray(jitter, float))
 
 
 def area_shrunk(lost, jitter):
