@@ -46,6 +46,10 @@ CASES = {
     "person": (["--person-at-side"], ("person",)),
     "post": (["--post", "0.6,10"], ()),
     "arm": (["--post", "0.6,10,-1.5"], ()),
+    # passing the straw the way it flies: 16 px, 2.5 px a frame
+    "arm_passing": (["--post", "0.5,16,2.5"], ()),
+    # moving with it, 1 px a frame: 25-37 % of it hidden for 60 frames
+    "arm_along": (["--post", "0.6,10,1.0"], ()),
 }
 
 #: The least share of a view's frames that stays unflagged (0.5 unless given): the dark
@@ -53,8 +57,12 @@ CASES = {
 #: highlight, too thin to survive the detections' erosion, leaves frames measured by
 #: their coverage, which the highlight cancels in part: their fill is low and they are
 #: flagged). Before the rod's core band (measure_mixed), 40 and 84 unflagged frames were
-#: kept at a median 2.4 and 1.9 px off, pulled towards the rider.
-_LEAST = {"dark_highlight_riding": 0.45}
+#: kept at a median 2.4 and 1.9 px off, pulled towards the rider. An arm moving with
+#: the straw hides a quarter of it or more for 60 frames; the straw is lost under it
+#: and, its prediction bent by the frames it was partly hidden in, not found again:
+#: 144 of 372 front frames (before: the visible part followed, up to 15 px off, the
+#: views disagreed by 3.4 px and the fit exited 2).
+_LEAST = {"dark_highlight_riding": 0.45, "arm_along": 0.35}
 
 
 # ---------------------------------------------------------------------------- render only

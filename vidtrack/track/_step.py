@@ -14,7 +14,8 @@ import numpy as np
 from vidtrack.track._flags import APPEARANCE, BORDER, MERGED
 from vidtrack.track._rods import (FILL_MIN, FILL_SEPARATE, FILL_WIDTH_MIN, NARROW, OFF_AXIS_MAX,
                                   SEPARATE_FRAMES, WIDTH_GROWN,
-                                  attached_across, end_hidden, hidden_side, rod_alone, rod_fill)
+                                  area_shrunk, attached_across, end_hidden, hidden_side, rod_alone,
+                                  rod_fill, rod_shortened)
 from vidtrack.track._coverage import measure, shade_background
 from vidtrack.track._mixed import measure_mixed
 from vidtrack.track._segment import edge_stats, read_level, work_margin
@@ -351,7 +352,15 @@ class _Step:
         # flagged, but its centroid is within a few pixels, so the prediction follows it
         # through a long ride (through a crossing with an object of its own size it
         # is predicted from its own clean motion alone)
-        slight = rod_shape and not same_shape and not same
+        # smaller than its clean frames: part of it hidden, by something before it
+        ref_cov = f.ref(f.covs, None)
+        shrunk = ((rod_shape and len(f.lengths) >= 3
+                   and bool(rod_shortened(ref_len - b.length, ref_len, f.length_jitter)))
+                  or (ref_cov is not None and len(f.covs) >= 3
+                      and bool(area_shrunk(1.0 - b.area / ref_cov, f.cov_jitter))))
+        # (what rides along adds to it: one smaller, something of the other polarity
+        # touching it, is partly hidden by that, and is not followed so)
+        slight = rod_shape and not same_shape and not same and not (shrunk and fl & MERGED)
         if rod_shape and not same_shape:
             same = True
         x0, y0, x1, y1 = b.bbox
@@ -381,7 +390,6 @@ class _Step:
         # shrunk at a stroke: part of it hidden (behind something, or against a
         # background it cannot be told from); shrinking smoothly, it is receding or
         # turning (the reference follows)
-        ref_cov = f.ref(f.covs, None)
         odd = (not same and ref_cov is not None and len(f.covs) >= 3
                and b.area < 0.65 * ref_cov and f.last_cov is not None
                and b.area < 0.8 * f.last_cov)

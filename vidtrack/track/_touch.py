@@ -20,14 +20,30 @@ def opposite_touching(work, min_area):
     return int(np.count_nonzero(hug & opp)) >= min_area
 
 
+#: What touches the object in the other polarity and runs out of the region round it
+#: with more than this many times its pixels is larger than a shadow of it (a copy of
+#: it, a few pixels off): an arm or a machine part before or behind it.
+SHADOW_AREA_MAX = 3.0
+
+
 def shadow_beside(work, *, least=0.0):
     """What touches the object in the other polarity is a shadow: its edges are
     blurred (at least 1.4 times as wide as the object's), and (``least``) it shows
     beside the object over at least that fraction of the object's pixels (a shadow is
-    a copy of the object; a blurred fringe of something passing behind is not)."""
+    a copy of the object; a blurred fringe of something passing behind is not). Not
+    when it runs out of the region round the object with more than
+    :data:`SHADOW_AREA_MAX` times its pixels (an arm passing before it, its edges
+    blurred by its motion)."""
     opp = (work.d * work.den < 0) & (np.abs(work.d) > work.t)
     near = cv2.dilate(work.sel, np.ones((9, 9), np.uint8)).view(bool)
-    if np.count_nonzero(opp & near) < least * np.count_nonzero(work.sel):
+    n_sel = np.count_nonzero(work.sel)
+    if np.count_nonzero(opp & near) < least * n_sel:
+        return False
+    _, lab = cv2.connectedComponents(opp.view(np.uint8))
+    touching = np.unique(lab[opp & near])
+    whole = np.isin(lab, touching[touching > 0])
+    if (whole[0].any() or whole[-1].any() or whole[:, 0].any() or whole[:, -1].any()) \
+            and np.count_nonzero(whole) > SHADOW_AREA_MAX * n_sel:
         return False
     _, w_opp = edge_stats(work, opp & near, alone=True)
     _, w_own = edge_stats(work, work.sel.view(bool), alone=True)
