@@ -13,7 +13,7 @@ import re
 
 import numpy as np
 
-from vidtrack.synth._views import _TOOTH_HALF_WIDTH_M, post_speed
+from vidtrack.synth._views import _TOOTH_HALF_WIDTH_M, post_box, post_speed
 from vidtrack.synth.spec import VIEW_NAMES
 
 __all__ = ["TRUTH_FILE", "TRUTH_SCHEMA"]
@@ -239,9 +239,9 @@ def _distractor_truth(spec, track, info, t, view_index):
             if track.post_moves:
                 # (u_px: its columns in the middle frame; post_u_px: its centre per frame)
                 about["post"]["speed_px_per_frame"] = post_speed(spec)
-                n = len(info)
-                cols["post_u_px"] = _json_list(0.5 * (box.u0 + box.u1) + post_speed(spec)
-                                               * (np.arange(n) - 0.5 * (n - 1)))
+                cols["post_u_px"] = _json_list(np.array(
+                    [0.5 * (b.u0 + b.u1) for b, _ in
+                     (post_box(spec, track.view, float(ti)) for ti in t)]))
     if spec.shake is not None:
         du, dv = _distractors.camera_shift(spec, view_index, t)
         cols.update({"camera_du_px": _json_list(du), "camera_dv_px": _json_list(dv)})
