@@ -50,6 +50,9 @@ CASES = {
     "arm_passing": (["--post", "0.5,16,2.5"], ()),
     # moving with it, 1 px a frame: 25-37 % of it hidden for 60 frames
     "arm_along": (["--post", "0.6,10,1.0"], ()),
+    # an object 4 px across (3 cm) going behind the post and out
+    "small_post": (["--straw-length-m", "0.03", "--straw-diameter-m", "0.03",
+                    "--post", "0.6,10"], ()),
 }
 
 #: The least share of a view's frames that stays unflagged (0.5 unless given): the dark
@@ -554,6 +557,16 @@ def test_a_straw_an_arm_passes_before_is_flagged_while_part_of_it_is_hidden(fitt
     behind it, was kept 0.51 px off: only full-size frames after it could put it (the
     frames before were flagged), and an extrapolation from 8 of them said too little."""
     _check_behind_the_post(*fitted("arm"), 10)
+
+
+def test_a_small_object_coming_out_from_behind_the_post_is_flagged_until_it_is_whole(
+        fitted):
+    """An object 4 px across (measured as a rod as long as it is wide) goes behind a
+    10 px post, is lost and found again 79 % hidden. Found again, it is judged by the
+    follower's rule: a rod shortened at an end, or any object that lost coverage at a
+    side. Before, only the shortened end was looked at there, and the second frame out,
+    79 % of it still hidden, was kept 1.56 px off (exit 0)."""
+    _check_behind_the_post(*fitted("small_post"), 20)
 
 
 def test_a_straw_cut_in_two_by_a_post_narrower_than_it_is_flagged(fitted_thin):

@@ -23,7 +23,7 @@ from vidtrack.track._rods import OFF_AXIS_MAX, rod_fill, rodlike_run, thin_line_
 from vidtrack.track._search import search_blobs
 from vidtrack.track._segment import Segmenter
 from vidtrack.track._select import Acquirer, Tracklet
-from vidtrack.track._step import HIDDEN_PX, follow, one_end_hidden, side_hidden
+from vidtrack.track._step import HIDDEN_PX, follow, part_hidden
 from vidtrack.track._target import ambiguity_message, target_blob, target_index
 from vidtrack.track.background import Background, estimate_background, sample_indices
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
@@ -418,18 +418,17 @@ class Pass:
 
     def _hidden_when_found(self, tr, f):
         """Per blob of the tracklet ``tr`` that found the lost object again: part of it
-        hidden (a rod shorter at one end, an object of any shape smaller at one side,
+        hidden (a rod shorter at one end, any object smaller at a side or a corner,
         its centre off where the lost object's clean frames put it by as much as that
-        moves it; :func:`~vidtrack.track._step.one_end_hidden`, ``side_hidden``, the
-        prediction's error grown with the frames since it was lost). The new follower
-        ``f`` starts from the lost one's sizes and motion. None when the lost object's
-        clean frames are too few to say, or its kind differs."""
+        moves it: :func:`~vidtrack.track._step.part_hidden`, the rule the follower
+        judges by, the prediction's error grown with the frames since it was lost). The
+        new follower ``f`` starts from the lost one's sizes and motion. None when the
+        lost object's clean frames are too few to say, or its kind differs."""
         lost = self.lost_fol
         if lost is None or lost.compact != f.compact:
             return None
         rod = not f.compact
-        ref = lost.ref(lost.lengths if rod else lost.covs, None)
-        if ref is None or len(lost.lengths if rod else lost.covs) < 3:
+        if len(lost.lengths if rod else lost.covs) < 3:
             return None
         err = lost.pred_error
         out = []
@@ -440,8 +439,7 @@ class Pass:
                 out.append(False)
                 continue
             p = got[0]
-            out.append(one_end_hidden(b, p, ref, err * gap, lost.length_jitter) if rod
-                       else side_hidden(b, p, ref, err * gap, lost.cov_jitter))
+            out.append(part_hidden(b, p, lost, err * gap, rod))
         if any(out):
             for name in ("levels", "areas", "covs", "lengths", "widths", "fills",
                          "strong_widths"):

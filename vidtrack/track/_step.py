@@ -67,6 +67,22 @@ def side_hidden(b, p, ref_cov, err, jitter, reach=None):
                             ref_cov, err, jitter, reach))
 
 
+def part_hidden(b, p, f, err, rod):
+    """Part of the object ``b`` hidden behind something before it, going by its
+    prediction ``p`` (px) with RMS error ``err`` (px) and the clean frames of the
+    follower ``f`` (3 at least): a rod (``rod``) shortened at one end
+    (:func:`one_end_hidden`), or any object that lost coverage at a side or a corner
+    (:func:`side_hidden`; a rod's part up to half its length from its centre)."""
+    ref_len = f.ref(f.lengths, None)
+    ref_cov = f.ref(f.covs, None)
+    if rod and ref_len is not None and len(f.lengths) >= 3 and \
+            one_end_hidden(b, p, ref_len, err, f.length_jitter):
+        return True
+    if ref_cov is None or len(f.covs) < 3 or (rod and ref_len is None):
+        return False
+    return side_hidden(b, p, ref_cov, err, f.cov_jitter, 0.5 * ref_len if rod else None)
+
+
 def _only_fainter(reg, others, p, reach, own_peak):
     """Something moves within ``reach`` (px) of ``p``, and all of it is fainter than the
     straw (:data:`~vidtrack.track._thin.FAINTER` of its largest change ``own_peak``): a
@@ -403,12 +419,7 @@ class _Step:
         # in a run of frames found one after the other since a clean one (not over a
         # gap), the prediction's error grown with the frames since that one
         err = self.err * max(1, abs(i - f.clean_at))
-        cut = (not same and abs(i - f.judged_at) == 1 and (
-            (rod_shape and len(f.lengths) >= 3
-             and one_end_hidden(b, p, ref_len, err, f.length_jitter))
-            or (ref_cov is not None and len(f.covs) >= 3
-                and side_hidden(b, p, ref_cov, err, f.cov_jitter,
-                                0.5 * ref_len if rod_shape else None))))
+        cut = not same and abs(i - f.judged_at) == 1 and part_hidden(b, p, f, err, rod_shape)
         # found again partly hidden and still growing at a stroke: still coming out
         # (the prediction over the frames it was lost cannot say by how much)
         coming = not same and f.coming_out(i, b, rod_shape)
