@@ -14,6 +14,7 @@ import numpy as np
 from vidtrack.track._moments import from_moments
 from vidtrack.track._segment import K3, K5, READABLE, fill_holes
 from vidtrack.track._shadow import attached_shadow
+from vidtrack.track._touch import larger_than_shadow
 
 #: A pixel whose ``|level - background|`` is below this many detection thresholds may be
 #: missed where the object covers it (a pixel at 1.2 to 1.6 thresholds was, through
@@ -126,12 +127,18 @@ def measure_solid(work, blob, *, smear=None):
     ring_k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
     far_k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (11, 11))
     offset = np.zeros_like(work.d)
+    # (something of the other polarity larger than a shadow beside it, an arm passing,
+    # does not shade what lies between it and the object: not of the surroundings)
+    opp = (work.d * work.den < 0) & (np.abs(work.d) > work.t)
+    apart = larger_than_shadow(
+        work, opp, cv2.dilate(core, far_k).view(bool)) if opp.any() else None
+    apart = work.others if apart is None else (work.others | apart)
     for _ in range(2):
         # the core, then the surroundings' offset, then the core read against them
         core_b = fill_holes(core) & ~work.others
         near = cv2.dilate(core_b.view(np.uint8), ring_k).view(bool)
         far = cv2.dilate(core_b.view(np.uint8), far_k).view(bool)
-        band = (far & ~near & ~work.others).astype(np.float32)
+        band = (far & ~near & ~apart).astype(np.float32)
         num = cv2.blur(work.d * band, (9, 9), borderType=cv2.BORDER_REPLICATE)
         cnt = cv2.blur(band, (9, 9), borderType=cv2.BORDER_REPLICATE)
         offset = np.where(cnt > 0.05, num / np.maximum(cnt, 1e-6), np.float32(0.0))

@@ -39,15 +39,32 @@ def shadow_beside(work, *, least=0.0):
     n_sel = np.count_nonzero(work.sel)
     if np.count_nonzero(opp & near) < least * n_sel:
         return False
-    _, lab = cv2.connectedComponents(opp.view(np.uint8))
-    touching = np.unique(lab[opp & near])
-    whole = np.isin(lab, touching[touching > 0])
-    if (whole[0].any() or whole[-1].any() or whole[:, 0].any() or whole[:, -1].any()) \
-            and np.count_nonzero(whole) > SHADOW_AREA_MAX * n_sel:
+    if larger_than_shadow(work, opp, near) is not None:
         return False
     _, w_opp = edge_stats(work, opp & near, alone=True)
     _, w_own = edge_stats(work, work.sel.view(bool), alone=True)
     return bool(np.isfinite(w_opp) and np.isfinite(w_own) and w_opp >= 1.4 * w_own)
+
+
+def larger_than_shadow(work, opp, near):
+    """What of ``opp`` (the other polarity's changed pixels, bool) meets ``near`` (bool),
+    when it runs out of the work region with more than :data:`SHADOW_AREA_MAX` times the
+    object's pixels, or runs through it (out at two opposite sides: longer than the
+    region round the object, which a copy of it a few pixels off is not), as a bool
+    mask: an arm or a machine part, not a shadow of the object. None when it does not,
+    or nothing meets it."""
+    if not (opp & near).any():
+        return None
+    _, lab = cv2.connectedComponents(opp.view(np.uint8))
+    touching = np.unique(lab[opp & near])
+    whole = np.isin(lab, touching[touching > 0])
+    top, bottom = whole[0].any(), whole[-1].any()
+    left, right = whole[:, 0].any(), whole[:, -1].any()
+    if (top and bottom) or (left and right) or (
+            (top or bottom or left or right)
+            and np.count_nonzero(whole) > SHADOW_AREA_MAX * np.count_nonzero(work.sel)):
+        return whole
+    return None
 
 
 def beside_thin(work, *, width):
