@@ -22,7 +22,7 @@ from vidtrack.track._follow import Follow, unlike
 from vidtrack.track._rods import OFF_AXIS_MAX, rod_fill, rodlike_run, thin_line_run
 from vidtrack.track._search import search_blobs
 from vidtrack.track._segment import Segmenter
-from vidtrack.track._select import HISTORY, Acquirer, Predictor, Tracklet
+from vidtrack.track._select import Acquirer, Tracklet
 from vidtrack.track._step import HIDDEN_PX, follow, part_hidden
 from vidtrack.track._target import ambiguity_message, target_blob, target_index
 from vidtrack.track.background import Background, estimate_background, sample_indices
@@ -559,17 +559,9 @@ class Pass:
             self.flags[drop] = LOST
             self.clean[drop] = self.solid[drop] = False
         else:
-            # where it can be, from its clean frames alone: those it was followed through
-            # flagged (a rider attached, part of it hidden behind something moving with
-            # it) may have bent its prediction away from it
-            last = np.flatnonzero(self.clean[:i])
-            pred = fol.pred
-            if last.size >= 3:
-                pred = Predictor()
-                for k in last[-HISTORY:]:
-                    pred.add(self.tau[k], self.u[k], self.v[k])
-            self.lost_state = (pred, self.tau[i])
+            self.lost_state = (fol.pred, self.tau[i])
             self.lost_index = i
+            last = np.flatnonzero(self.clean[:i])
             self.lost_look = fol.look(self._background_at(last[-1]) if last.size else np.nan)
             self.lost_fol = fol
             if fol.level is not None:
