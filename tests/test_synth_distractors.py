@@ -56,6 +56,11 @@ CASES = {
     # a compact object (7 by 6 cm: 10 by 8 px) with an arm moving along with it
     "compact_arm_along": (["--straw-length-m", "0.07", "--straw-diameter-m", "0.06",
                            "--post", "0.6,10,1.0"], ()),
+    # the same object with its shadow 4 px off, half under it (a ball before a lit
+    # wall: before, the object and its shadow were taken as one object of both
+    # polarities, the front view's frames 2.5 px off, exit 0)
+    "compact_shadow": (["--straw-length-m", "0.07", "--straw-diameter-m", "0.06",
+                        "--shadow", "4,0.4,1.5"], ("shadow",)),
 }
 
 #: The least share of a view's frames that stays unflagged (0.5 unless given): the dark

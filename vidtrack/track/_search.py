@@ -146,9 +146,13 @@ def _wholes(seg, i, frame, r, gain, parts, *, shape, min_area):
         # pass smoothly through the wall's grey level from one polarity to the other
         # (a blurred dark part much larger than the sharp bright one is not its shadow:
         # a dark toy whose bright crescent at its rim is sharp, its own dark texture
-        # fading into the wall)
+        # fading into the wall); a shadow told by each part's edges without those it
+        # shares with the other polarity (a shadow's edge with the object beside it is
+        # the object's)
         wb, wd = edge_width(inside[1]), edge_width(inside[-1])
-        unlike = (wd >= 1.6 * wb and area_of[-1] <= SHADOW_AREA_MAX * area_of[1]) or \
+        sb, sd = edge_width(inside[1], alone=True), edge_width(inside[-1], alone=True)
+        sb, sd = (sb if np.isfinite(sb) else wb), (sd if np.isfinite(sd) else wd)
+        unlike = (sd >= 1.6 * sb and area_of[-1] <= SHADOW_AREA_MAX * area_of[1]) or \
             (_rods(inside[big]) and wb >= 1.6 * wd)
         if (not enclosed and np.isfinite(wb) and np.isfinite(wd) and unlike
                 and not _both_without_shadow(work, min_area)):

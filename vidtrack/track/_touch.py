@@ -118,9 +118,14 @@ def beside_thin(work, *, width):
     return float(np.percentile(np.abs(work.d[near]), 90)) <= 0.35 * own
 
 
-def edge_width(parts):
-    """Edge width (px) of the larger parts (the mask-area weighted median)."""
-    parts = sorted((q for q in parts if np.isfinite(q.edge_w)), key=lambda q: q.edge_w)
+def edge_width(parts, *, alone=False):
+    """Edge width (px) of the larger parts (the mask-area weighted median); ``alone``:
+    each part's without the edges of what touches it in the other polarity (a shadow's
+    edge with the object beside it is the object's, sharp)."""
+    def width(q):
+        return q.edge_w_alone if alone else q.edge_w
+
+    parts = sorted((q for q in parts if np.isfinite(width(q))), key=width)
     if not parts:
         return np.nan
     half = 0.5 * sum(q.mask_area for q in parts)
@@ -128,8 +133,8 @@ def edge_width(parts):
     for q in parts:
         run += q.mask_area
         if run >= half:
-            return float(q.edge_w)
-    return float(parts[-1].edge_w)
+            return float(width(q))
+    return float(width(parts[-1]))
 
 
 def other_touching(work, *, width, min_area):
