@@ -58,9 +58,12 @@ CASES = {
                            "--post", "0.6,10,1.0"], ()),
     # the same object with its shadow 4 px off, half under it (a ball before a lit
     # wall: before, the object and its shadow were taken as one object of both
-    # polarities, the front view's frames 2.5 px off, exit 0)
+    # polarities, the front view's frames 2.5 px off, exit 0), and dark with a
+    # highlight (a steel ball: _XFAIL)
     "compact_shadow": (["--straw-length-m", "0.07", "--straw-diameter-m", "0.06",
                         "--shadow", "4,0.4,1.5"], ("shadow",)),
+    "compact_dark_highlight": (["--straw-length-m", "0.07", "--straw-diameter-m", "0.06",
+                                "--straw-polarity", "dark", "--highlight", "0.95"], ()),
 }
 
 #: The least share of a view's frames that stays unflagged (0.5 unless given): the dark
@@ -360,7 +363,19 @@ def _unflagged(run):
     return out
 
 
-@pytest.mark.parametrize("name", list(CASES))
+#: Cases the tracker does not yet pass, with what was measured.
+_XFAIL = {
+    "compact_dark_highlight":
+        "the segmentation's closing joins compression's ringing beside the dark object's "
+        "edge into a 3 x 3 chunk that its silhouette reads as fully covered: 122 of 335 "
+        "front frames 0.5 to 1.95 px off, k1 -4 %, k4 +4 % (reading only pixels changed "
+        "beyond the threshold as its interior broke the textured toys' tests)",
+}
+
+
+@pytest.mark.parametrize("name", [
+    pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=_XFAIL[n])) if n in _XFAIL
+    else n for n in CASES])
 def test_fit_against_truth(fitted, name):
     run, res = fitted(name)
     assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
