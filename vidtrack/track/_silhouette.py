@@ -111,7 +111,11 @@ def measure_solid(work, blob, *, smear=None):
     [0, 1], where ``b'`` is the pixel's static background plus how much the surroundings
     (2 to 5 px beyond the core) differ from theirs: a shadow falling beside the object
     darkens what shows between its edge and the shadow, which read against the static
-    background would look like more of the object.
+    background would look like more of the object. Something of the other polarity
+    larger than a shadow (:func:`~vidtrack.track._touch.larger_than_shadow`: an arm
+    passing 2 px beside it) is not of the surroundings: it does not shade what lies
+    between (read as shaded, the ring on its side put the centre 0.2-0.28 px towards
+    it).
 
     ``smear``: how far its edge may be smeared by its motion (px; its motion in a frame
     at most): its detections farther than 2 px plus that from their outline are fully

@@ -21,8 +21,9 @@ def opposite_touching(work, min_area):
 
 
 #: What touches the object in the other polarity and runs out of the region round it
-#: with more than this many times its pixels is larger than a shadow of it (a copy of
-#: it, a few pixels off): an arm or a machine part before or behind it.
+#: with more than this many times its pixels (or runs through that region) is larger
+#: than a shadow of it (a copy of it, a few pixels off): an arm or a machine part
+#: before or behind it (:func:`larger_than_shadow`).
 SHADOW_AREA_MAX = 3.0
 
 
@@ -31,9 +32,8 @@ def shadow_beside(work, *, least=0.0):
     blurred (at least 1.4 times as wide as the object's), and (``least``) it shows
     beside the object over at least that fraction of the object's pixels (a shadow is
     a copy of the object; a blurred fringe of something passing behind is not). Not
-    when it runs out of the region round the object with more than
-    :data:`SHADOW_AREA_MAX` times its pixels (an arm passing before it, its edges
-    blurred by its motion)."""
+    when it is larger than a shadow (:func:`larger_than_shadow`: an arm passing before
+    it, its edges blurred by its motion)."""
     opp = (work.d * work.den < 0) & (np.abs(work.d) > work.t)
     near = cv2.dilate(work.sel, np.ones((9, 9), np.uint8)).view(bool)
     n_sel = np.count_nonzero(work.sel)
