@@ -141,7 +141,7 @@ def _window(tau, size, idx, i, half, rod):
     change = np.abs(np.diff(size[near]))
     if rod:
         short, jitter = ref - size[i], float(np.median(change))
-        maybe = rod_shortened(short, ref, jitter)
+        maybe = rod_shortened(short, jitter)
     else:
         short = 1.0 - size[i] / ref
         jitter = float(np.median(change / np.maximum(size[near][:-1], 1e-9)))
@@ -207,7 +207,7 @@ def flag_hidden_parts(tau, pos, size, flags, mask, *, cut_flag, angle=None, reac
         off = pos[i] - x0 @ coef
         if rod:
             along = off[0] * np.cos(angle[i]) + off[1] * np.sin(angle[i])
-            hidden = end_hidden(along, short, ref, err, jitter)
+            hidden = end_hidden(along, short, err, jitter)
         else:
             hidden = hidden_side(float(np.hypot(*off)), short, ref, err, jitter,
                                  None if reach is None else reach[i])

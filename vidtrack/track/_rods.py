@@ -157,10 +157,10 @@ def rod_alone(reg, group, lv, b, f, ref_w, ref_len, min_area):
     return b2, dropped
 
 
-def rod_shortened(short, ref_len, jitter):
-    """A rod ``short`` (px) shorter than its clean frames' length ``ref_len``, whose
-    length changes by ``jitter`` (px, median) from one to the next, is short enough to
-    be looked at for an end hidden (:data:`SHORT_PX`). Arrays or scalars."""
+def rod_shortened(short, jitter):
+    """A rod ``short`` (px) shorter than its clean frames' length, whose length changes
+    by ``jitter`` (px, median) from one to the next, is short enough to be looked at for
+    an end hidden (:data:`SHORT_PX`). Arrays or scalars."""
     with np.errstate(invalid="ignore"):
         return np.asarray(short, float) >= np.maximum(SHORT_PX, 3.0 * np.asarray(jitter, float))
 
@@ -174,8 +174,8 @@ def area_shrunk(lost, jitter):
                                                      3.0 * np.asarray(jitter, float))
 
 
-def end_hidden(along, short, ref_len, err, jitter):
-    """A rod ``short`` (px) shorter than its clean frames' length ``ref_len``, its centre
+def end_hidden(along, short, err, jitter):
+    """A rod ``short`` (px) shorter than its clean frames' length, its centre
     ``along`` (px) off where they put it along its axis, their scatter ``err`` (px) and
     the median change of their length from one to the next ``jitter`` (px): one end
     hidden (:data:`SHORT_PX`, :data:`END_SHIFT`). Arrays or scalars."""
@@ -183,7 +183,7 @@ def end_hidden(along, short, ref_len, err, jitter):
     err = 3.0 * np.asarray(err, float)
     off = np.abs(along)
     with np.errstate(invalid="ignore"):
-        return (rod_shortened(short, ref_len, jitter)
+        return (rod_shortened(short, jitter)
                 & (off >= np.maximum(END_SHIFT * short, err))
                 & (off <= (1.0 - END_SHIFT) * short + err))
 

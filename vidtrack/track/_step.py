@@ -54,7 +54,7 @@ def one_end_hidden(b, p, ref_len, err, jitter):
     its clean frames' length ``ref_len`` and its change from one to the next ``jitter``,
     and the prediction's RMS error ``err`` (px) (:func:`~vidtrack.track._rods.end_hidden`)."""
     along = (b.u - p[0]) * math.cos(b.angle) + (b.v - p[1]) * math.sin(b.angle)
-    return bool(end_hidden(along, ref_len - b.length, ref_len, err, jitter))
+    return bool(end_hidden(along, ref_len - b.length, err, jitter))
 
 
 def side_hidden(b, p, ref_cov, err, jitter, reach=None):
@@ -371,7 +371,7 @@ class _Step:
         # smaller than its clean frames: part of it hidden, by something before it
         ref_cov = f.ref(f.covs, None)
         shrunk = ((rod_shape and len(f.lengths) >= 3
-                   and bool(rod_shortened(ref_len - b.length, ref_len, f.length_jitter)))
+                   and bool(rod_shortened(ref_len - b.length, f.length_jitter)))
                   or (ref_cov is not None and len(f.covs) >= 3
                       and bool(area_shrunk(1.0 - b.area / ref_cov, f.cov_jitter))))
         # (what rides along adds to it: one smaller, something of the other polarity
