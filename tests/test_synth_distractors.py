@@ -63,9 +63,12 @@ CASES = {
                         "--shadow", "4,0.4,1.5"], ("shadow",)),
     # dark with a highlight, a steel ball (before its measurement of one grey level with
     # a spot, measure_spotted: 122 of 335 front frames 0.5 to 1.95 px off, k1 -4 %,
-    # k4 +4 %, exit 0)
+    # k4 +4 %, exit 0), and one 17 by 14 px (before the highlight was held to be part
+    # of it: the highlight taken, every frame flagged MERGED, exit 2)
     "compact_dark_highlight": (["--straw-length-m", "0.07", "--straw-diameter-m", "0.06",
                                 "--straw-polarity", "dark", "--highlight", "0.95"], ()),
+    "ball_dark_highlight": (["--straw-length-m", "0.12", "--straw-diameter-m", "0.10",
+                             "--straw-polarity", "dark", "--highlight", "0.95"], ()),
 }
 
 #: The least share of a view's frames that stays unflagged (0.5 unless given): the dark

@@ -324,17 +324,25 @@ def on_body(part, whole):
                 and np.hypot(du, dv) <= r)
 
 
+#: A part of the other polarity lying on an object of any shape but a rod's at least this
+#: many times its size is of it (:func:`held`).
+HELD_RATIO = 3.0
+
+
 def held(blob, blobs, *, ratio=2.0):
-    """``blob`` lies on the body of a rod of the other polarity in ``blobs``, at least
-    ``ratio`` times its size and no narrower: a part of that rod (a dark straw's
-    highlight), not the object. (Among the parts of a textured object, light on dark,
-    the whole is chosen otherwise.)"""
+    """``blob`` lies on the body of a larger object of the other polarity in ``blobs``:
+    a part of it, not the object. A rod at least ``ratio`` times its size and no
+    narrower (a dark straw's highlight), or an object of any other shape at least
+    :data:`HELD_RATIO` times its size (a steel ball's highlight: small, it had flown
+    twice its own size before the ball had flown twice the ball's, and was taken, every
+    frame of it then flagged MERGED with the ball). (Among the parts of a textured
+    object, light on dark, the whole is chosen otherwise.)"""
     if blob.polarity == 0:
         return False
-    return any(b is not blob and b.polarity == -blob.polarity
-               and b.mask_area >= ratio * blob.mask_area and rodlike(b)
-               and not (blob.width > b.width) and on_body(blob, b)
-               for b in blobs)
+    return any(b is not blob and b.polarity == -blob.polarity and on_body(blob, b) and (
+        (b.mask_area >= ratio * blob.mask_area and rodlike(b) and not blob.width > b.width)
+        or (b.mask_area >= HELD_RATIO * blob.mask_area and not rodlike(b)))
+        for b in blobs)
 
 
 def _merged_blob(a, b):
