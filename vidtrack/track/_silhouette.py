@@ -63,10 +63,8 @@ def trim_attached(work, *, reach_px, along=(0.0, 0.0)):
     # contrast; a white cup's shading or a toy's fur do not)
     vals = work.f[core.view(bool)]
     contrast = float(np.median(np.abs(work.d[core.view(bool)])))
-    if vals.size >= 5 and contrast > 0:
-        q25, q75 = np.percentile(vals, [25, 75])
-        if (q75 - q25) > 0.15 * contrast + 2.0 * float(np.median(work.t)) / 5.0:
-            uniform = 0.0
+    if vals.size >= 5 and contrast > 0 and not _even(vals, contrast, work.t):
+        uniform = 0.0
     if reach_px is None:
         return n_core, 0, uniform
     r = max(1, int(math.ceil(reach_px)))
@@ -237,6 +235,12 @@ def _silhouette(work, blob, sel, ad, *, trimmed=None):
 #: pixels are at most this share of the object's own.
 SPOT_MAX = 0.5
 
+#: The least pixels an object's interior needs for its grey level to be read
+#: (:func:`own_level`), and the least of its plateau where it has no such interior
+#: (:func:`measure_spotted`).
+OWN_LEAST = 12
+PLATEAU_LEAST = 6
+
 
 def measure_spotted(work, blob, sel, ad, *, trimmed=None):
     """Centroid etc. of an object of one grey level with a spot of the other polarity
@@ -255,7 +259,10 @@ def measure_spotted(work, blob, sel, ad, *, trimmed=None):
     ``|f - b|`` over its filled silhouette: ringing stays below) are mostly of one
     polarity, its own; those of the other (at most :data:`SPOT_MAX` of its own) lie
     within the convex hull of its own; its own pixels' interior (eroded by a pixel, at
-    least 12) is of one grey level (:func:`own_level`). Then the hull is its body
+    least :data:`OWN_LEAST`; an object too small for that, a ball 6 px across with its
+    highlight in the middle, by its plateau: its own pixels within 0.8 of their 90th
+    percentile, at least :data:`PLATEAU_LEAST`) is of one grey level
+    (:func:`own_level`). Then the hull is its body
     (fully covered inside, the highlight with it), and a pixel at the body's edge (its
     outer pixel and the one beyond) is covered by ``(f - b) / (level - b)``, clipped to
     [0, 1], where ``level - b`` is readable (:data:`READABLE`; on background of its own
@@ -275,8 +282,15 @@ def measure_spotted(work, blob, sel, ad, *, trimmed=None):
     n_spot = int(np.count_nonzero(spot))
     if n_spot == 0 or n_spot > SPOT_MAX * np.count_nonzero(own):
         return False
-    level = own_level(work, cv2.erode(own.view(np.uint8), K3).view(bool))
-    if level is None:
+    interior = cv2.erode(own.view(np.uint8), K3).view(bool)
+    if np.count_nonzero(interior) < OWN_LEAST:
+        # too small for an interior (a ball 6 px across, the highlight in its middle):
+        # its plateau, the pixels of its own within 0.8 of their 90th percentile
+        top_own = np.float32(np.percentile(ad[own], 90))
+        interior = own & (ad >= np.float32(0.8) * top_own)
+    level = own_level(work, interior, least=PLATEAU_LEAST)
+    contrast = work.d[interior] * pol
+    if level is None or not _even(contrast, float(np.median(contrast)), work.t[interior]):
         return False
     hull = np.zeros(own.shape, np.uint8)
     cv2.fillConvexPoly(hull, cv2.convexHull(cv2.findNonZero(own.view(np.uint8))), 1)
@@ -308,23 +322,30 @@ def _outline(work):
     return sil
 
 
-def own_level(work, inner):
+def _even(vals, contrast, t):
+    """Whether the values ``vals`` (an object's interior: its grey levels, or their
+    contrast against the background) agree: their interquartile range within 15 % of
+    the object's ``contrast`` plus twice the noise (``t``: detection thresholds, 5 noise
+    sigmas; their median taken)."""
+    q25, q75 = np.percentile(vals, [25, 75])
+    return bool(q75 - q25 <= 0.15 * contrast + 2.0 * float(np.median(t)) / 5.0)
+
+
+def own_level(work, inner, *, least=OWN_LEAST):
     """The object's grey level where its interior's pixels agree (an object of one grey
     level, whatever the background does round it), else None (textured, two-toned: a
     white cup with a dark opening, a ball with a highlight).
 
-    ``inner``: its interior, its silhouette eroded by a pixel; at least 12 pixels, whose
-    interquartile range is within 15 % of their median contrast plus twice the noise
-    (the criterion of :func:`trim_attached`).
+    ``inner``: its interior, its silhouette eroded by a pixel; at least ``least`` pixels,
+    whose interquartile range is within 15 % of their median contrast plus twice the
+    noise (the criterion of :func:`trim_attached`).
     """
-    if np.count_nonzero(inner) < 12:
+    if np.count_nonzero(inner) < least:
         return None
     vals = work.f[inner]
-    contrast = float(np.median(np.abs(work.d[inner])))
-    q25, q50, q75 = np.percentile(vals, [25, 50, 75])
-    if q75 - q25 > 0.15 * contrast + 2.0 * float(np.median(work.t[inner])) / 5.0:
+    if not _even(vals, float(np.median(np.abs(work.d[inner]))), work.t[inner]):
         return None
-    return float(q50)
+    return float(np.median(vals))
 
 
 def hidden_bound(work, blob, *, known=None, area=None):
@@ -336,7 +357,7 @@ def hidden_bound(work, blob, *, known=None, area=None):
     sil = _outline(work)
     inner = cv2.erode(sil.view(np.uint8), K3).view(bool)
     own = own_level(work, inner)
-    if own is None and known is not None and np.count_nonzero(inner) < 12:
+    if own is None and known is not None and np.count_nonzero(inner) < OWN_LEAST:
         own = known
     return 0.0 if own is None else hidden_shift(work, blob, level=own, area=area, sil=sil)
 
