@@ -204,7 +204,7 @@ def test_bear_tracked_to_the_ground_as_the_group_tracked_it(bears, name):
     # the centroid 13 and 18 px down)
     shadow = [x for x in tr.notes if x.startswith("shadow:")]
     assert len(shadow) == 1, tr.notes
-    # 2.3 px RMS for the bear (2.6 px with its shadow); 4.45 px for the bear under its
+    # 2.3 px RMS for the bear (2.6 px with its shadow); 4.38 px for the bear under its
     # balloon, tracked as one object (the pair's centre, above the bear's) while the
     # group tracked the bear alone as the pair swings (4.6 px with the shadow, which
     # pulled the centroid down towards the bear)
@@ -213,8 +213,8 @@ def test_bear_tracked_to_the_ground_as_the_group_tracked_it(bears, name):
     measured = np.flatnonzero(np.isfinite(v))
     assert measured[-1] >= len(v) - 3
     # from the release: the bear from frame 0 (56 of 59 usable); the bear under its
-    # balloon, one compound object, from frame 0 too (52 of 70 usable; frames 13-28
-    # flagged merged, 26 lost)
+    # balloon, one compound object, from frame 0 too (51 of 70 usable; frames 13-28
+    # flagged merged but 26, lost, and 29 an outlier)
     assert ok.sum() >= 0.5 * len(v)
     if name == "oso_sin_globo":
         assert measured[0] <= 2 and ok.sum() >= 0.9 * len(v)
