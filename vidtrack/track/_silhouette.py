@@ -215,9 +215,9 @@ def _silhouette(work, blob, sel, ad, *, trimmed=None):
     with a spot of the other polarity (a steel ball's highlight) is measured by
     :func:`measure_spotted`."""
     trimmed = work.trimmed if trimmed is None else trimmed
-    if measure_spotted(work, blob, sel, ad, trimmed=trimmed):
-        return blob
     filled = fill_holes(sel)
+    if measure_spotted(work, blob, filled, ad, trimmed=trimmed):
+        return blob
     fu8 = filled.view(np.uint8)
     inner = cv2.erode(fu8, K3).view(bool)
     ref = cv2.dilate(np.where(inner, ad, np.float32(0.0)), K5)
@@ -242,10 +242,11 @@ OWN_LEAST = 12
 PLATEAU_LEAST = 6
 
 
-def measure_spotted(work, blob, sel, ad, *, trimmed=None):
+def measure_spotted(work, blob, region, ad, *, trimmed=None):
     """Centroid etc. of an object of one grey level with a spot of the other polarity
     within its outline (a dark steel ball and its highlight), in place; False (``blob``
-    untouched) for any other object.
+    untouched) for any other object. ``region``: its silhouette (its detections, holes
+    filled); ``ad = |f - b|``.
 
     Read as a silhouette, such an object went wrong two ways. Its edge pixels were read
     against the largest contrast near them, which near the highlight is the highlight's:
@@ -255,8 +256,8 @@ def measure_spotted(work, blob, sel, ad, *, trimmed=None):
     silhouette took them as fully covered (a dark ball 10 by 8 px with a highlight, MJPG
     quality 60: 122 of 335 frames 0.5 to 1.95 px off).
 
-    Its strong pixels (of either polarity, at least 0.3 of the 90th percentile of
-    ``|f - b|`` over its filled silhouette: ringing stays below) are mostly of one
+    Its strong pixels (of either polarity, above 0.3 of the 90th percentile of
+    ``|f - b|`` over its silhouette: ringing stays below) are mostly of one
     polarity, its own; those of the other (at most :data:`SPOT_MAX` of its own) lie
     within the convex hull of its own; its own pixels' interior (eroded by a pixel, at
     least :data:`OWN_LEAST`; an object too small for that, a ball 6 px across with its
@@ -269,7 +270,6 @@ def measure_spotted(work, blob, sel, ad, *, trimmed=None):
     brightness the edge cannot be read, 0), and fully where the spot reaches the body's
     outer pixel. What lies beyond is not read.
     """
-    region = fill_holes(sel)
     if not region.any():
         return False
     d = work.d
@@ -289,8 +289,10 @@ def measure_spotted(work, blob, sel, ad, *, trimmed=None):
         top_own = np.float32(np.percentile(ad[own], 90))
         interior = own & (ad >= np.float32(0.8) * top_own)
     level = own_level(work, interior, least=PLATEAU_LEAST)
-    contrast = work.d[interior] * pol
-    if level is None or not _even(contrast, float(np.median(contrast)), work.t[interior]):
+    if level is None:
+        return False
+    contrast = d[interior] * pol
+    if not _even(contrast, float(np.median(contrast)), work.t[interior]):
         return False
     hull = np.zeros(own.shape, np.uint8)
     cv2.fillConvexPoly(hull, cv2.convexHull(cv2.findNonZero(own.view(np.uint8))), 1)
@@ -338,7 +340,7 @@ def own_level(work, inner, *, least=OWN_LEAST):
 
     ``inner``: its interior, its silhouette eroded by a pixel; at least ``least`` pixels,
     whose interquartile range is within 15 % of their median contrast plus twice the
-    noise (the criterion of :func:`trim_attached`).
+    noise (:func:`_even`, as :func:`trim_attached` asks of a core).
     """
     if np.count_nonzero(inner) < least:
         return None
