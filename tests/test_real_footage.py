@@ -6,9 +6,10 @@ beside the checkout.
 What each clip shows (measured with this code; docs/tracker.md keeps the table):
 
 - diabolo (240 fps, a student in view, a chalkboard): the glider followed from its first
-  frame to the last, never the student; the authors marked the cups' dark junction,
-  not the silhouette's centre, so the distance to their points is a few pixels of
-  definition (about 2.3 px left and 3.3 px below) plus hand placement;
+  frame to the last, never the student; the authors marked a feature (the dark spot of
+  a cup seen through its mouth), not the silhouette's centre, and their points drift
+  off it as the flight goes on, so the distance to them is a few pixels of definition
+  (about 2 px left and 3.3 px below) plus that drift (measured without the tracker);
 - balltoss (30 fps): the ball from the frame it leaves the hand, never the hand; g from a
   drag-free fit of the tracked points within 2 % of g from the reference points;
 - bear (60 fps phone video, rotation tag, colour): both drops from release to the
@@ -75,12 +76,48 @@ def test_diabolo_glider_followed_never_the_student(diabolo, hint):
     assert ok[flight].mean() >= 0.90                      # 98 % measured
     measured = np.isfinite(dist)
     assert np.all(dist[measured] < 20.0)                  # never the student (300+ px)
-    # the authors' point is the cups' dark junction; the silhouette's centre lies
-    # about 4 px from it (-2.3, +3.3 px); with that definition taken out, about 2.5 px
+    # the authors' point is a dark spot on the glider, and drifts off it (the next
+    # test); the silhouette's centre lies about 4 px from it (-2.0, +3.3 px median);
+    # with that offset taken out, about 2.5 px
     assert np.median(dist[ok]) <= 5.0
     assert np.hypot(*offset) <= 5.0
     assert np.median(dist_def[ok]) <= 3.0
     assert np.percentile(dist_def[ok], 95) <= 8.0
+
+
+def test_diabolo_reference_leaves_the_spot_it_marks(diabolo):
+    """Why no centre of the glider can lie within 2 px (median) of the authors' points:
+    their point leaves the feature it marks. That feature, the darkest spot of the cup
+    seen through its mouth, is found here without the tracker (the darkest pixel of the
+    grey frame smoothed by 2.5 px, within 20 px of their point): their point is on it
+    early in the flight and drifts off it, 10 px by the end, across the flight (a time
+    offset would move it along). Measured: median 2.6 px over frames 60-119, 3.3 px
+    over 120-249, 6.7 px over 300-359, 9.8 px over 360-409 (before frame 60 the
+    darkest spot near the glider is something else)."""
+    import cv2
+
+    path, ref = diabolo
+    cap = cv2.VideoCapture(str(path))
+    spot = np.full((len(ref), 2), np.nan)
+    r = 20
+    for i in range(len(ref)):
+        got, frame = cap.read()
+        assert got, f"{path}: frame {i} did not decode"
+        g = cv2.GaussianBlur(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY).astype(np.float32),
+                             (0, 0), 2.5)
+        u, v = (int(round(x)) for x in ref[i, 2:4])
+        x0, y0 = max(u - r, 0), max(v - r, 0)
+        y, x = np.unravel_index(np.argmin(g[y0:v + r + 1, x0:u + r + 1]),
+                                (v + r + 1 - y0, u + r + 1 - x0))
+        spot[i] = x0 + x, y0 + y
+    cap.release()
+    off = np.hypot(*(spot - ref[:, 2:4]).T)
+    early, late = np.median(off[60:120]), np.median(off[360:410])
+    print(f"\ndiabolo: the authors' point from the dark spot it marks, median "
+          f"{early:.1f} px (frames 60-119), {np.median(off[120:250]):.1f} (120-249), "
+          f"{np.median(off[300:360]):.1f} (300-359), {late:.1f} (360-409)")
+    assert early <= 3.5
+    assert late >= 7.0
 
 
 # --------------------------------------------------------------------- balltoss

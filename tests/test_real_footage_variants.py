@@ -155,7 +155,8 @@ def test_diabolo_smaller_or_flatter_never_the_student(diabolo, change, tmp_path)
     """The glider at half the size (about 22 px) or at 0.4 times the contrast: still
     followed all flight, never the student, within a few pixels of the unchanged clip's
     track (measured: median 0.3 and 0.5 px, 95 % within 1.2 and 1.9 px) and as near the
-    authors' points as before (median 4.3 px: their mark is the cups' junction)."""
+    authors' points as before (median 4.3 px: their mark is a dark spot on the glider,
+    and it drifts off it)."""
     path, ref, base, width = diabolo
     tr, _ = _track(_write(path, change, tmp_path / f"{change}.avi"), 240)
     both, dist, extra = _compare(change, base, width, tr)
