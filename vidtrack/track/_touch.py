@@ -137,12 +137,21 @@ def edge_width(parts, *, alone=False):
     return float(width(parts[-1]))
 
 
-def other_touching(work, *, width, min_area):
+def _opposite(work, ignore):
+    """The other polarity's changed pixels (uint8), less ``ignore`` (bool) when given."""
+    opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
+    if ignore is not None:
+        opp[ignore] = 0
+    return opp
+
+
+def other_touching(work, *, width, min_area, ignore=None):
     """Something of the other polarity touches the straw: solid (it survives a 3 x 3
     opening) and reaching beyond the 2-pixel seam where compression rings round the
-    straw's edges (a halo is not an object)."""
+    straw's edges (a halo is not an object). ``ignore``: pixels not looked at (bool; a
+    spot on the object's own body)."""
     sel = work.sel
-    opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
+    opp = _opposite(work, ignore)
     hug = cv2.dilate(sel, K5)
     if np.count_nonzero(hug & opp) < min_area:
         return False
@@ -152,24 +161,26 @@ def other_touching(work, *, width, min_area):
     return np.count_nonzero(cv2.dilate(sel, kernel) & ~hug & solid) >= min_area
 
 
-def other_behind(work, level, *, width, min_area):
+def other_behind(work, level, *, width, min_area, ignore=None):
     """Take a moving object of the other polarity touching the straw as its background.
 
     A bright straw riding a dark blade (or crossing a dark object) does not cover the
     static background but the object: its coverage must be read against the object's
     level. The object's pixels near the straw (changed *away* from the straw's level)
     are closed over the straw's width, and inside that region the background becomes the
-    object's median level (in place, in ``work``).
+    object's median level (in place, in ``work``). ``ignore``: pixels where the other
+    polarity is the object's own (its highlight, :func:`~vidtrack.track._search.on_own_body`),
+    not looked at.
 
     Returns
     -------
     bool
         True when such an object touches the straw (the frame is then flagged).
     """
-    if not other_touching(work, width=width, min_area=min_area):
+    if not other_touching(work, width=width, min_area=min_area, ignore=ignore):
         return False
     sel = work.sel
-    opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
+    opp = _opposite(work, ignore)
     k = 2 * int(math.ceil(max(width or 1.0, 1.0))) + 3
     kernel = np.ones((k, k), np.uint8)
     near = cv2.dilate(sel, kernel).view(bool)
