@@ -336,7 +336,8 @@ def test_badminton_shuttlecock_followed_between_two_hits(real_footage, cam):
     along = (du * gx + dv * gy) / sp
     across = (dv * gx - du * gy) / sp
     behind = -along / d["length_px"].to_numpy()
-    print(f"\nbadminton cam{cam}: {ok.mean():.0%} of {ok.size} frames unflagged; to the labels "
+    print(f"\nbadminton cam{cam}: {ok.sum()} of {ok.size} frames unflagged ({ok.mean():.0%}); "
+          f"to the labels "
           f"median {np.median(np.hypot(du, dv)[ok]):.2f} px, largest "
           f"{np.hypot(du, dv)[ok].max():.1f} px; across the flight median "
           f"{np.median(np.abs(across[ok])):.2f} px, 95 % within "
