@@ -18,7 +18,7 @@ import numpy as np
 
 from vidtrack.track._mixed import measure_mixed
 from vidtrack.track._moments import axis, from_moments, share_off_axis
-from vidtrack.track._segment import COVERAGE_RANGE, K3, READABLE
+from vidtrack.track._segment import COVERAGE_RANGE, K3, READABLE, opposite
 from vidtrack.track._thin import (GAP_MAX_PX, THIN_PX, fit_line, is_thin_line, local_centroid,
                                  strong_line)
 
@@ -278,7 +278,7 @@ def shade_background(work):
     averages, under the straw's edge; there the background becomes ``b`` times it.
     Returns the number of pixels whose background changed.
     """
-    opp = (work.d * work.den < 0) & (np.abs(work.d) > work.t)
+    opp = opposite(work)
     near = cv2.dilate(work.sel, np.ones((9, 9), np.uint8)).view(bool)
     shade = opp & near
     if not shade.any():

@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 
 from vidtrack.track._moments import axis, detections_off_axis, from_moments, top_third_median
-from vidtrack.track._segment import K3, K5, fill_holes
+from vidtrack.track._segment import K3, K5, convex_hull, fill_holes
 from vidtrack.track._silhouette import measure_silhouette
 
 #: A rod of both polarities: its core is where its main polarity shows at least this
@@ -97,10 +97,7 @@ def _rod_body(work, blob, d, ad, top, sel, strong, body, band):
     n, labels, stats, _ = cv2.connectedComponentsWithStats(body.view(np.uint8), connectivity=8)
     if n > 2:
         body = labels == 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
-    pts = cv2.findNonZero(body.view(np.uint8))
-    hull = np.zeros(body.shape, np.uint8)
-    cv2.fillConvexPoly(hull, cv2.convexHull(pts), 1)
-    body = hull.view(bool) & ~work.others
+    body = convex_hull(body) & ~work.others
     bu8 = body.view(np.uint8)
     inner = cv2.erode(bu8, K3).view(bool)
     edge = cv2.dilate(bu8, K3).view(bool) & ~inner & ~work.others

@@ -15,7 +15,8 @@ from vidtrack.track._rods import is_rod, rod_fill, rodlike_run
 from vidtrack.track._coverage import measure
 from vidtrack.track._mixed import measure_mixed
 from vidtrack.track._moments import from_moments
-from vidtrack.track._segment import K3, K5, edge_stats, fill_holes, read_level, work_margin
+from vidtrack.track._segment import (K3, K5, convex_hull, edge_stats, fill_holes, opposite,
+                                     read_level, work_margin)
 from vidtrack.track._shadow import attached_shadow
 from vidtrack.track._silhouette import SPOT_MAX, hidden_bound, measure_silhouette, trim_attached
 from vidtrack.track._select import on_body
@@ -54,11 +55,9 @@ def on_own_body(work, min_area):
     shape = from_moments(SimpleNamespace(), sel.astype(np.float32), (0, 0))
     if not shape.area > 0 or is_rod(shape.width, shape.length):
         return None
-    hull = np.zeros_like(sel)
-    cv2.fillConvexPoly(hull, cv2.convexHull(cv2.findNonZero(sel)), 1)
-    hull = cv2.dilate(hull, K3).view(bool)
+    hull = cv2.dilate(convex_hull(sel).view(np.uint8), K3).view(bool)
     # (what touches it, but compression's specks smaller than an object can be)
-    opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
+    opp = opposite(work).view(np.uint8)
     _, lab, stats, _ = cv2.connectedComponentsWithStats(opp)
     near = np.unique(lab[cv2.dilate(work.sel, K5).view(bool) & opp.view(bool)])
     near = near[(near > 0) & (stats[near, cv2.CC_STAT_AREA] >= min_area)]

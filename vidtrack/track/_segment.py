@@ -61,6 +61,22 @@ def fill_holes(mask):
     return (pad[1:-1, 1:-1] > 0) | (flood[1:-1, 1:-1] == 0)
 
 
+def convex_hull(mask):
+    """The convex hull of ``mask``'s nonzero pixels, filled (bool, ``mask``'s shape)."""
+    hull = np.zeros(mask.shape, np.uint8)
+    cv2.fillConvexPoly(hull, cv2.convexHull(cv2.findNonZero(mask.view(np.uint8))), 1)
+    return hull.view(bool)
+
+
+def opposite(work, ignore=None):
+    """The pixels of ``work`` changed beyond the threshold the other way than the
+    object's level (bool), less ``ignore`` (bool) when given."""
+    opp = (work.d * work.den < 0) & (np.abs(work.d) > work.t)
+    if ignore is not None:
+        opp &= ~ignore
+    return opp
+
+
 @dataclass
 class Blob:
     """One connected component of a region of interest, measured.

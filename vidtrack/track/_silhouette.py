@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 
 from vidtrack.track._moments import from_moments
-from vidtrack.track._segment import K3, K5, READABLE, fill_holes
+from vidtrack.track._segment import K3, K5, READABLE, convex_hull, fill_holes, opposite
 from vidtrack.track._shadow import attached_shadow
 from vidtrack.track._touch import larger_than_shadow
 
@@ -131,7 +131,7 @@ def measure_solid(work, blob, *, smear=None):
     offset = np.zeros_like(work.d)
     # (something of the other polarity larger than a shadow beside it, an arm passing,
     # does not shade what lies between it and the object: not of the surroundings)
-    opp = (work.d * work.den < 0) & (np.abs(work.d) > work.t)
+    opp = opposite(work)
     apart = larger_than_shadow(
         work, opp, cv2.dilate(core, far_k).view(bool)) if opp.any() else None
     apart = work.others if apart is None else (work.others | apart)
@@ -294,9 +294,7 @@ def measure_spotted(work, blob, region, ad, *, trimmed=None):
     contrast = d[interior] * pol
     if not _even(contrast, float(np.median(contrast)), work.t[interior]):
         return False
-    hull = np.zeros(own.shape, np.uint8)
-    cv2.fillConvexPoly(hull, cv2.convexHull(cv2.findNonZero(own.view(np.uint8))), 1)
-    hull = hull.view(bool)
+    hull = convex_hull(own)
     if (spot & ~hull).any():
         return False
     body = hull & ~work.others

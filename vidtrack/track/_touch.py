@@ -9,13 +9,13 @@ import math
 import cv2
 import numpy as np
 
-from vidtrack.track._segment import K3, K5, edge_stats
+from vidtrack.track._segment import K3, K5, edge_stats, opposite
 from vidtrack.track._thin import strong_line, strongest
 
 
 def opposite_touching(work, min_area):
     """Pixels changed the other way (than the object's level) touching the object."""
-    opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
+    opp = opposite(work).view(np.uint8)
     hug = cv2.dilate(work.sel, np.ones((5, 5), np.uint8))
     return int(np.count_nonzero(hug & opp)) >= min_area
 
@@ -34,7 +34,7 @@ def shadow_beside(work, *, least=0.0):
     a copy of the object; a blurred fringe of something passing behind is not). Not
     when it is larger than a shadow (:func:`larger_than_shadow`: an arm passing before
     it, its edges blurred by its motion)."""
-    opp = (work.d * work.den < 0) & (np.abs(work.d) > work.t)
+    opp = opposite(work)
     near = cv2.dilate(work.sel, np.ones((9, 9), np.uint8)).view(bool)
     n_sel = np.count_nonzero(work.sel)
     if np.count_nonzero(opp & near) < least * n_sel:
@@ -84,7 +84,7 @@ def beside_thin(work, *, width):
     strong = strongest(np.where(sel, c, np.float32(0.0)))
     if strong is None or not strong.any():
         return False
-    opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
+    opp = opposite(work).view(np.uint8)
     k = 2 * int(np.ceil(max(width or 1.0, 1.0))) + 3
     behind = cv2.morphologyEx(opp, cv2.MORPH_CLOSE, np.ones((k, k), np.uint8)).view(bool)
     s = strong.view(bool)
@@ -137,21 +137,13 @@ def edge_width(parts, *, alone=False):
     return float(width(parts[-1]))
 
 
-def _opposite(work, ignore):
-    """The other polarity's changed pixels (uint8), less ``ignore`` (bool) when given."""
-    opp = ((work.d * work.den < 0) & (np.abs(work.d) > work.t)).view(np.uint8)
-    if ignore is not None:
-        opp[ignore] = 0
-    return opp
-
-
 def other_touching(work, *, width, min_area, ignore=None):
     """Something of the other polarity touches the straw: solid (it survives a 3 x 3
     opening) and reaching beyond the 2-pixel seam where compression rings round the
     straw's edges (a halo is not an object). ``ignore``: pixels not looked at (bool; a
     spot on the object's own body)."""
     sel = work.sel
-    opp = _opposite(work, ignore)
+    opp = opposite(work, ignore).view(np.uint8)
     hug = cv2.dilate(sel, K5)
     if np.count_nonzero(hug & opp) < min_area:
         return False
@@ -180,7 +172,7 @@ def other_behind(work, level, *, width, min_area, ignore=None):
     if not other_touching(work, width=width, min_area=min_area, ignore=ignore):
         return False
     sel = work.sel
-    opp = _opposite(work, ignore)
+    opp = opposite(work, ignore).view(np.uint8)
     k = 2 * int(math.ceil(max(width or 1.0, 1.0))) + 3
     kernel = np.ones((k, k), np.uint8)
     near = cv2.dilate(sel, kernel).view(bool)
