@@ -50,6 +50,16 @@ def bench_track(out_dir, *, quick=False, progress=None):
     return table.to_string(index=False)
 
 
+def bench_track_real(out_dir, *, quick=False, progress=None, engines=None, clips=None,
+                     shared=None):
+    """The tracker scoreboard: real clips and synthetic scenes, each engine (CSV, text)."""
+    from vidtrack.bench.real import format_scoreboard, run_scoreboard
+
+    table = run_scoreboard(out_dir, shared=shared, engines=engines, clips=clips,
+                           quick=quick, progress=progress)
+    return format_scoreboard(table)
+
+
 def bench_fit(out_dir, *, quick=False, progress=None, seeds=None):
     """k error against frames used and run time; whole fit against plain decoding."""
     from vidtrack.bench.fit import run_fit_bench

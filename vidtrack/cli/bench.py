@@ -10,6 +10,17 @@ pick, in one run on this machine, and write a table (TEXT, CSV) and a plot (PNG)
          typical, a stiff and an extreme case, against 50-digit truth; plus the blade
          slide (eqs. 2 and 3 against the exact solution)
   track  the tracker against decode-only, trackpy.locate and an OpenCV tracker
+         --real: the tracker scoreboard instead: every clip of <shared>/data/real
+         that has footage (launcher, balltoss, the two bears, diabolo, the two
+         badminton cameras with their target) and every synthetic distractor scene
+         (both views), tracked by each engine and scored against a reference made by
+         others: the share of the flight unflagged; median, 95th percentile, largest
+         and RMS distance (px) from the reference; a fit's figure from the track
+         against the same from the reference's own points (launcher k2/k1 of a
+         drag-free fit; balltoss and diabolo g; bears k of a linear-drag fit;
+         badminton and synth |a| of a 2-D parabola); CPU s of track() and decode-only
+         time / track time. Writes bench_track_real.csv and .txt. A clip whose files
+         are absent is skipped, saying so; one an engine refuses is a 'failed' row
   fit    k error against frames used (1200..150 fps) and run time, interval coverage
          over seeded runs, and the whole 'vidtrack fit' against plain decoding
   perspective
@@ -21,6 +32,8 @@ Examples:
   vidtrack bench model
   vidtrack bench model --out results/ --quick
   vidtrack bench perspective --seeds 3
+  vidtrack bench track --real --quick
+  vidtrack bench track --real --engine rules --clips balltoss,launcher,synth:shadow
 """
 
 
@@ -38,6 +51,23 @@ def add_arguments(parser):
                         help="fit and perspective: number of seeded synthetic runs "
                              "(default 10 for fit, 3 for perspective; e.g. --seeds 40 for "
                              "the interval coverage)")
+    real = parser.add_argument_group("the tracker scoreboard (vidtrack bench track --real)")
+    real.add_argument("--real", action="store_true",
+                      help="track: the scoreboard on real clips and synthetic distractor "
+                           "scenes instead of the synthetic speed benchmark; with --quick "
+                           "the slow clips (diabolo, badminton) are left out")
+    real.add_argument("--engine", action="append", default=None, metavar="NAME",
+                      help="with --real: a tracker engine to score, repeatable (default: "
+                           "every engine of vidtrack.track.tracker.ENGINES, or 'rules'); "
+                           "e.g. --engine rules --engine flight")
+    real.add_argument("--clips", default=None, metavar="A,B",
+                      help="with --real: only these clips, e.g. 'balltoss,launcher', "
+                           "'synth:shadow' (both views), 'synth:shadow/front', or the "
+                           "groups real, synth, bear, badminton (default: all)")
+    real.add_argument("--shared", default=None, metavar="DIR",
+                      help="with --real: the shared folder holding data/real, read in "
+                           "place (default: ../shared beside the checkout), e.g. "
+                           "--shared /data/shared")
 
 
 def run(args):
@@ -65,6 +95,20 @@ def run(args):
     if args.which == "model" and importlib.util.find_spec("mpmath") is None:
         raise VidtrackError("vidtrack bench model measures against 50-digit truth and needs "
                             "mpmath: pip install 'vidtrack[bench]'")
+    scoreboard = (args.engine, args.clips, args.shared)
+    if not args.real and any(x is not None for x in scoreboard):
+        raise VidtrackError("--engine, --clips and --shared go with 'vidtrack bench track "
+                            "--real'")
+    if args.real:
+        if args.which != "track":
+            raise VidtrackError(f"--real goes with 'vidtrack bench track', not "
+                                f"'{args.which}'")
+        from vidtrack.bench.run import bench_track_real
+
+        print(bench_track_real(args.out, quick=args.quick, progress=progress,
+                               engines=args.engine, clips=args.clips, shared=args.shared))
+        print(f"\nwritten to {args.out}/")
+        return 0
     extra = {"seeds": args.seeds} if args.which in ("fit", "perspective") else {}
     text = RUNNERS[args.which](args.out, quick=args.quick, progress=progress, **extra)
     print(text)
