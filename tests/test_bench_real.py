@@ -86,6 +86,7 @@ def test_launcher_perfect_track_is_0_px_and_ratio_1_and_a_shift_is_its_size():
     assert row["unflagged"] == 35 and row["unflagged_frac"] == pytest.approx(35 / 71)
     assert row["median_px"] == pytest.approx(0.6) and row["p95_px"] == pytest.approx(0.6)
     assert row["fit_ratio"] == pytest.approx(1.0, rel=1e-6)
+    assert row["fit_ref_same"] == pytest.approx(1.0, rel=1e-6)
 
 
 def test_balltoss_offset_and_scales_found_and_g_read_in_metres():
@@ -189,7 +190,8 @@ def test_cases_and_clip_names():
 # ------------------------------------------------------------------- the command
 
 COLUMNS = ["clip", "engine", "status", "flight_frames", "unflagged", "median_px", "p95_px",
-           "max_px", "rms_px", "fit", "fit_track", "fit_ref", "fit_ratio", "track_cpu_s",
+           "max_px", "rms_px", "fit", "fit_track", "fit_ref", "fit_ratio", "fit_ref_same",
+           "track_cpu_s",
            "decode_cpu_s", "x_decode", "note"]
 
 
@@ -216,7 +218,7 @@ def test_scoreboard_on_balltoss_and_a_synthetic_scene_launcher_absent(real_foota
         r = rows.loc[clip]
         assert r["status"] == "ok" and r["engine"] == "rules"
         for col in ("median_px", "p95_px", "max_px", "fit_track", "fit_ref", "fit_ratio",
-                    "track_cpu_s", "decode_cpu_s", "x_decode"):
+                    "fit_ref_same", "track_cpu_s", "decode_cpu_s", "x_decode"):
             assert np.isfinite(r[col]), (clip, col)
         assert 0 < r["unflagged"] <= r["flight_frames"]
         assert r["median_px"] <= r["p95_px"] <= r["max_px"]

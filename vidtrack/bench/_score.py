@@ -32,6 +32,10 @@ class Score:
     fit_track, fit_ref : float
         That figure from the track's unflagged flight points and from the reference's
         own points (NaN when too few points).
+    fit_ref_same : float
+        That figure from the reference's points on the frames ``fit_track`` used only
+        (what a perfect track flagged alike gives): ``fit_track`` against it is the
+        positions' error alone, ``fit_ref`` against it what the flags cost.
     note : str
         The alignment used, or why something is missing.
     """
@@ -42,6 +46,7 @@ class Score:
     fit: str
     fit_track: float
     fit_ref: float
+    fit_ref_same: float = float("nan")
     note: str = ""
 
     def to_row(self):
@@ -62,6 +67,7 @@ class Score:
                 "rms_px": float(np.sqrt(np.mean(d ** 2))) if have else float("nan"),
                 "fit": self.fit, "fit_track": float(self.fit_track),
                 "fit_ref": float(self.fit_ref), "fit_ratio": float(ratio),
+                "fit_ref_same": float(self.fit_ref_same),
                 "note": self.note}
 
 

@@ -15,6 +15,8 @@ skipped), ``flight_frames`` (frames of the flight, as the reference has it),
 ``p95_px``, ``max_px``, ``rms_px`` (distance from the reference over the scored frames,
 px), ``fit`` (what the next three are), ``fit_track`` (from the track's unflagged flight
 points), ``fit_ref`` (from the reference's own points), ``fit_ratio`` (track / ref),
+``fit_ref_same`` (from the reference's points on the frames the track's figure used:
+what a perfect track flagged alike gives),
 ``track_cpu_s`` (CPU seconds of the ``track()`` call, opening the footage included),
 ``track_wall_s``, ``decode_cpu_s`` (CPU seconds to decode the same frames, measured in
 the same run), ``x_decode`` (decode_cpu_s / track_cpu_s: the tracker's speed as a
@@ -136,7 +138,8 @@ def score_launcher(tr, ref, *, fps=LAUNCHER_FPS):
     return Score(flight_frames=frames.size, unflagged=int(ok.sum()),
                  dist_px=np.hypot(u - ru, v - rv)[ok], fit="k2/k1",
                  fit_track=descent_over_ascent(t[ok], v[ok]),
-                 fit_ref=descent_over_ascent(t, rv))
+                 fit_ref=descent_over_ascent(t, rv),
+                 fit_ref_same=descent_over_ascent(t[ok], rv[ok]))
 
 
 def score_balltoss(tr, ref):
@@ -179,9 +182,11 @@ def score_balltoss(tr, ref):
     dv = v[flight] - (av * -ref[inside, 2] + bv)
     # rows grow downwards, av px per metre up: g = v'' / av
     g = quadratic_accel(t[flight][ok], v[flight][ok]) / av if av else float("nan")
+    same = -quadratic_accel(ref[inside][ok, 0], ref[inside][ok, 2])
     return Score(flight_frames=len(ref), unflagged=int(ok.sum()),
                  dist_px=np.hypot(du, dv)[ok], fit="g m/s2", fit_track=g,
-                 fit_ref=g_ref, note=f"reference t=0 at frame {off}, {av:.1f} px/m")
+                 fit_ref=g_ref, fit_ref_same=same,
+                 note=f"reference t=0 at frame {off}, {av:.1f} px/m")
 
 
 def score_bear(tr, ref, *, fps=60.0):
@@ -224,7 +229,9 @@ def score_bear(tr, ref, *, fps=60.0):
     return Score(flight_frames=frames.size, unflagged=int(ok.sum()), dist_px=dist[ok],
                  fit="k 1/s", fit_track=linear_drag_k(frames[ok] / fps, y_track[ok],
                                                       g=BEAR_G_M_S2),
-                 fit_ref=k_ref, note=f"offset {off:+d} frames, {1.0 / m_per_px:.1f} px/m")
+                 fit_ref=k_ref, fit_ref_same=linear_drag_k(frames[ok] / fps, y[ok],
+                                                           g=BEAR_G_M_S2),
+                 note=f"offset {off:+d} frames, {1.0 / m_per_px:.1f} px/m")
 
 
 def score_diabolo(tr, ref, *, fps=240.0):
@@ -249,6 +256,8 @@ def score_diabolo(tr, ref, *, fps=240.0):
     g = -quadratic_accel(t[ok], (DIABOLO_ROW0_PX - v[ok]) / DIABOLO_PX_PER_M)
     return Score(flight_frames=frames.size, unflagged=int(ok.sum()), dist_px=dist[ok],
                  fit="g m/s2", fit_track=g, fit_ref=g_ref,
+                 fit_ref_same=-quadratic_accel(t[ok], (DIABOLO_ROW0_PX - rv[ok])
+                                               / DIABOLO_PX_PER_M),
                  note=f"offset ({off[0]:+.1f}, {off[1]:+.1f}) px taken out")
 
 
@@ -264,7 +273,8 @@ def score_badminton(tr, lab, *, fps=BADMINTON_FPS):
     t = frames / fps
     return Score(flight_frames=frames.size, unflagged=int(ok.sum()),
                  dist_px=np.hypot(u - x, v - y)[ok], fit="|a| px/s2",
-                 fit_track=accel_2d(t[ok], u[ok], v[ok]), fit_ref=accel_2d(t, x, y))
+                 fit_track=accel_2d(t[ok], u[ok], v[ok]), fit_ref=accel_2d(t, x, y),
+                 fit_ref_same=accel_2d(t[ok], x[ok], y[ok]))
 
 
 # ------------------------------------------------------------------- the clips
@@ -414,7 +424,7 @@ def _skipped(name, why):
 
 COLUMNS = ["clip", "engine", "status", "flight_frames", "unflagged", "unflagged_frac",
            "scored", "median_px", "p95_px", "max_px", "rms_px", "fit", "fit_track",
-           "fit_ref", "fit_ratio", "track_cpu_s", "track_wall_s", "decode_cpu_s",
+           "fit_ref", "fit_ratio", "fit_ref_same", "track_cpu_s", "track_wall_s", "decode_cpu_s",
            "x_decode", "note"]
 
 
@@ -522,7 +532,8 @@ def format_scoreboard(table):
                 "median px": _num(r["median_px"], ".2f"), "p95 px": _num(r["p95_px"], ".2f"),
                 "max px": _num(r["max_px"], ".1f"), "rms px": _num(r["rms_px"], ".2f"),
                 "fit": r["fit"], "track": _num(r["fit_track"], ".4g"),
-                "ref": _num(r["fit_ref"], ".4g"), "ratio": _num(r["fit_ratio"], ".3f")})
+                "ref": _num(r["fit_ref"], ".4g"), "ratio": _num(r["fit_ratio"], ".3f"),
+                "ref same": _num(r["fit_ref_same"], ".4g")})
         else:
             line.update({"unflagged": "failed"})
             failed.append(f"  failed {r['clip']} ({r['engine']}): {r['note']}")
@@ -530,11 +541,12 @@ def format_scoreboard(table):
                      "x decode": _num(r["x_decode"], ".2f")})
         shown.append(line)
     cols = ["clip", "engine", "unflagged", "median px", "p95 px", "max px", "rms px", "fit",
-            "track", "ref", "ratio", "cpu s", "x decode"]
+            "track", "ref", "ratio", "ref same", "cpu s", "x decode"]
     text = ["Tracker scoreboard: frames unflagged of the flight; distance from the "
             "reference (px);",
-            "a fit's figure from the track (track) and from the reference's own points "
-            "(ref);",
+            "a fit's figure from the track (track), from the reference's own points (ref) "
+            "and from them",
+            "on the frames the track's figure used (ref same);",
             "CPU s of track() and decode-only CPU time / track CPU time (x decode)", ""]
     if shown:
         width = max(len(x["clip"]) for x in shown)

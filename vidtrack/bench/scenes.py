@@ -159,4 +159,5 @@ def score_view(tr, about):
                  dist_px=np.hypot(u - tu, v - tv)[scored], fit="|a| px/s2",
                  fit_track=accel_2d(t[scored], u[scored], v[scored]),
                  fit_ref=accel_2d(t[clean], tu[clean], tv[clean]),
+                 fit_ref_same=accel_2d(t[scored], tu[scored], tv[scored]),
                  note=f"{int(clean.sum())} clean frames")
