@@ -95,7 +95,10 @@ if TYPE_CHECKING:
 
 __all__ = ["Track", "track", "track_parts", "FLAGS", "BORDER", "BLADE", "MERGED", "LOST",
            "PREDICTED", "PRE_RELEASE", "OUTLIER", "APPEARANCE", "EXCLUDED", "TRACK_COLUMNS",
-           "describe_flags", "Cancelled"]
+           "describe_flags", "Cancelled", "ENGINES"]
+
+#: The trackers :func:`track` offers (its ``engine``).
+ENGINES = ("rules", "flight")
 
 #: Columns of :attr:`Track.data`, in order.
 TRACK_COLUMNS = ("frame", "t_s", "u_px", "v_px", "area_px", "angle_rad", "length_px", "flags")
@@ -213,7 +216,7 @@ class Track:
 
 def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
           max_gap=5, blade_region=None, centre_line_px=None, warmup_frames=None,
-          quiet=True, cancel=None, target=None):
+          quiet=True, cancel=None, target=None, engine="rules", settings=None):
     """Track the straw through one view's footage.
 
     Parameters
@@ -261,6 +264,13 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
         moving, or the one flying (travelling smoothly along a ballistic path, keeping
         its size; a person moving about does not); when several fly alike, the
         TrackError names them and shows the ``target`` line to add.
+    engine : {"rules", "flight"}, optional
+        Which tracker: ``"rules"`` (default, described above) or ``"flight"``, the one
+        mechanism of :mod:`vidtrack.track.flight` (detect, link, choose by the flight,
+        flag by statistics), which reads its thresholds from ``settings``.
+    settings : vidtrack.track.settings.TrackerSettings, optional
+        The flight tracker's settings (``k_sigma``, ``min_area_px`` and ``max_gap``
+        given here override theirs when they differ from the defaults).
 
     Returns
     -------
@@ -284,7 +294,8 @@ def track(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
     tr = Track.from_parts(track_parts(
         source, background=background, view=view, k_sigma=k_sigma, min_area_px=min_area_px,
         max_gap=max_gap, blade_region=blade_region, centre_line_px=centre_line_px,
-        warmup_frames=warmup_frames, quiet=quiet, cancel=cancel, target=target))
+        warmup_frames=warmup_frames, quiet=quiet, cancel=cancel, target=target,
+        engine=engine, settings=settings))
     log_tracked(tr)
     return tr
 
@@ -386,10 +397,25 @@ def _without_ghost(source, ps, kw):
 
 def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=4,
                 max_gap=5, blade_region=None, centre_line_px=None, warmup_frames=None,
-                quiet=True, cancel=None, target=None):
+                quiet=True, cancel=None, target=None, engine="rules", settings=None):
     """:func:`track`'s work, returning the :class:`Track`'s fields as a dict, its rows as
     a dict of numpy arrays (``columns``): a worker process need not load pandas
     (:meth:`Track.from_parts` builds the Track)."""
+    if engine not in ENGINES:
+        raise TrackError(f"tracker engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+    if engine == "flight":
+        import dataclasses
+
+        from vidtrack.track.flight import track_flight
+        from vidtrack.track.settings import TrackerSettings
+
+        settings = settings or TrackerSettings()
+        given = {"k_sigma": k_sigma, "min_area_px": min_area_px, "max_gap": max_gap}
+        defaults = {"k_sigma": 5.0, "min_area_px": 4, "max_gap": 5}
+        settings = dataclasses.replace(
+            settings, **{k: val for k, val in given.items() if val != defaults[k]})
+        return track_flight(source, settings=settings, background=background, view=view,
+                            target=target, blade_region=blade_region, cancel=cancel)
     kw = dict(view=view, k_sigma=k_sigma, min_area_px=min_area_px, max_gap=max_gap,
               blade_region=blade_region, centre_line_px=centre_line_px,
               warmup_frames=warmup_frames, quiet=quiet, cancel=cancel, target=target)

@@ -1,0 +1,171 @@
+"""Step 1 of the flight tracker: what differs from the background, frame by frame.
+
+Every pixel's foreground evidence is its difference from the background in units of its
+own noise, ``z = |frame - background| / sigma`` (both polarities at once, so a highlight
+on a dark object belongs to the object). A detection is a connected set of pixels beyond
+``k_grow`` that holds at least one beyond ``k_sigma`` (hysteresis), grown by one pixel
+for its measurement so that its faint edge is counted on every side alike.
+
+Each detection is measured where it is found, in the one pass over the footage:
+
+- its **weighted centroid and second moments**, each pixel weighted by its difference
+  from the background clipped at the detection's own contrast (the 90th percentile of
+  its differences): the pixel's share of the object (its coverage) for an object of one
+  grey level, and a bounded weight for a highlight or texture inside it;
+- its **photometric shadow test**: a shadow dims the background by a smooth factor and
+  keeps its texture; an object hides it. A detection is shadow-like when all its pixels
+  are darker than the background by a factor no smaller than ``shadow_ratio_min``
+  (frame / background, 10th percentile), and, where the background has texture there,
+  the frame's texture still correlates with it (Pearson r of the two over the
+  detection at least ``shadow_texture_min``).
+
+A detection is kept when its signal-to-noise ratio, the sum of its pixels' ``z`` over the
+square root of their count, is at least ``min_snr``: one pixel of compression noise
+beyond ``k_sigma`` with a few beside it beyond ``k_grow`` is not an object.
+
+A frame's detections are a small structured array (:data:`DETECTION_DTYPE`); nothing of
+the image is kept, so memory does not grow with the footage's length.
+"""
+
+import cv2
+import numpy as np
+
+__all__ = ["Detector", "DETECTION_DTYPE", "MAX_DETECTIONS"]
+
+#: At most this many detections are kept per frame (the strongest by total weight).
+MAX_DETECTIONS = 48
+
+#: One detection: centroid (px), weight (coverage-like area, px^2), pixel count, second
+#: central moments (px^2), contrast (grey levels, signed: + brighter than the
+#: background), the share of the weight brighter than the background, the 10th
+#: percentile of frame / background, the texture correlation, whether it is
+#: shadow-like, and whether it touches the frame's border.
+DETECTION_DTYPE = np.dtype([("u", "f8"), ("v", "f8"), ("weight", "f8"), ("area", "i4"),
+                            ("muu", "f8"), ("mvv", "f8"), ("muv", "f8"),
+                            ("contrast", "f4"), ("bright_share", "f4"),
+                            ("ratio_p10", "f4"), ("texture_r", "f4"),
+                            ("snr", "f4"), ("shadow", "?"), ("border", "?")])
+
+_KERNEL3 = np.ones((3, 3), np.uint8)
+
+
+def _percentile_by_label(values, labels, n, q):
+    """The ``q`` quantile (0..1, lower) of ``values`` within each label ``0..n-1``."""
+    order = np.lexsort((values, labels))
+    counts = np.bincount(labels, minlength=n)
+    starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
+    idx = starts + np.floor(q * np.maximum(counts - 1, 0)).astype(np.int64)
+    out = np.zeros(n, values.dtype)
+    has = counts > 0
+    out[has] = values[order][idx[has]]
+    return out
+
+
+class Detector:
+    """Detections of one view's frames against its background.
+
+    Parameters
+    ----------
+    background : vidtrack.track.background.Background
+        The static background and its per-pixel noise.
+    settings : vidtrack.track.settings.TrackerSettings
+        ``k_sigma``, ``k_grow``, ``min_area_px``, ``shadow_ratio_min``,
+        ``shadow_texture_min``.
+    """
+
+    def __init__(self, background, settings):
+        self.settings = settings
+        self.bg = np.ascontiguousarray(background.image, dtype=np.float32)
+        sigma = background.threshold(k=1.0).astype(np.float32)
+        self.sigma = sigma
+        self.seed_level = (sigma * np.float32(settings.k_sigma)).astype(np.float32)
+        self.grow_level = (sigma * np.float32(settings.k_grow)).astype(np.float32)
+        self.noise = float(background.noise_sigma)
+        self.rows, self.cols = self.bg.shape
+
+    def __call__(self, frame):
+        """The detections of one grey frame (a :data:`DETECTION_DTYPE` array)."""
+        s = self.settings
+        f = frame.astype(np.float32, copy=False)
+        diff = cv2.subtract(f, self.bg)
+        absd = np.abs(diff)
+        grow = cv2.compare(absd, self.grow_level, cv2.CMP_GT)
+        n, lab, stats, _ = cv2.connectedComponentsWithStats(grow, connectivity=8,
+                                                            ltype=cv2.CV_32S)
+        if n <= 1:
+            return np.zeros(0, DETECTION_DTYPE)
+        seed = cv2.compare(absd, self.seed_level, cv2.CMP_GT)
+        ys, xs = np.nonzero(seed)
+        seeded = np.zeros(n, bool)
+        seeded[lab[ys, xs]] = True
+        seeded[0] = False
+        seeded &= stats[:, cv2.CC_STAT_AREA] >= s.min_area_px
+        keep = np.flatnonzero(seeded)
+        if keep.size == 0:
+            return np.zeros(0, DETECTION_DTYPE)
+        if keep.size > 4 * MAX_DETECTIONS:
+            keep = keep[np.argsort(stats[keep, cv2.CC_STAT_AREA])[::-1][:4 * MAX_DETECTIONS]]
+        # the kept components, relabelled 1..m, grown by a pixel (a pixel between two
+        # takes the larger label: rare, and only at their edges)
+        remap = np.zeros(n, np.float32)
+        remap[keep] = np.arange(1, keep.size + 1, dtype=np.float32)
+        own = remap[lab]
+        grown = cv2.dilate(own, _KERNEL3)
+        ys, xs = np.nonzero(grown)
+        li = grown[ys, xs].astype(np.int64) - 1
+        m = keep.size
+        d = diff[ys, xs].astype(np.float64)
+        a = np.abs(d)
+        level = _percentile_by_label(a, li, m, 0.9)
+        w = np.minimum(a, level[li]) / np.maximum(level[li], 1e-9)
+        xf, yf = xs.astype(np.float64), ys.astype(np.float64)
+        sw = np.bincount(li, w, m)
+        good = sw > 0
+        su = np.bincount(li, w * xf, m)
+        sv = np.bincount(li, w * yf, m)
+        u = np.divide(su, sw, out=np.full(m, np.nan), where=good)
+        v = np.divide(sv, sw, out=np.full(m, np.nan), where=good)
+        du, dv = xf - u[li], yf - v[li]
+        muu = np.bincount(li, w * du * du, m) / np.maximum(sw, 1e-12)
+        mvv = np.bincount(li, w * dv * dv, m) / np.maximum(sw, 1e-12)
+        muv = np.bincount(li, w * du * dv, m) / np.maximum(sw, 1e-12)
+        bright = np.bincount(li, w * (d > 0), m) / np.maximum(sw, 1e-12)
+        contrast = np.bincount(li, w * d, m) / np.maximum(sw, 1e-12)
+        # the photometric test, over the component's own pixels (not the grown ring)
+        core = own[ys, xs] > 0
+        bgv = self.bg[ys, xs].astype(np.float64)
+        fv = f[ys, xs].astype(np.float64)
+        ratio = fv / np.maximum(bgv, 1.0)
+        ratio_p10 = _percentile_by_label(ratio[core], li[core], m, 0.1)
+        dark_all = np.bincount(li, core & (d >= 0), m) == 0
+        cnt = np.bincount(li, core, m)
+        mb = np.bincount(li, core * bgv, m) / np.maximum(cnt, 1)
+        mf = np.bincount(li, core * fv, m) / np.maximum(cnt, 1)
+        cb = np.where(core, bgv - mb[li], 0.0)
+        cf = np.where(core, fv - mf[li], 0.0)
+        sbb = np.bincount(li, cb * cb, m)
+        sff = np.bincount(li, cf * cf, m)
+        sbf = np.bincount(li, cb * cf, m)
+        texture_r = sbf / np.sqrt(np.maximum(sbb * sff, 1e-12))
+        textured = np.sqrt(sbb / np.maximum(cnt, 1)) >= 3.0 * self.noise
+        zc = np.where(core, a / self.sigma[ys, xs], 0.0)
+        snr = np.bincount(li, zc, m) / np.sqrt(np.maximum(cnt, 1))
+        good &= snr >= s.min_snr
+        shadow = (dark_all & (ratio_p10 >= s.shadow_ratio_min)
+                  & (~textured | (texture_r >= s.shadow_texture_min)))
+        x0 = stats[keep, cv2.CC_STAT_LEFT]
+        y0 = stats[keep, cv2.CC_STAT_TOP]
+        x1 = x0 + stats[keep, cv2.CC_STAT_WIDTH]
+        y1 = y0 + stats[keep, cv2.CC_STAT_HEIGHT]
+        border = (x0 <= 0) | (y0 <= 0) | (x1 >= self.cols) | (y1 >= self.rows)
+        out = np.zeros(m, DETECTION_DTYPE)
+        out["u"], out["v"], out["weight"] = u, v, sw
+        out["area"] = stats[keep, cv2.CC_STAT_AREA]
+        out["muu"], out["mvv"], out["muv"] = muu, mvv, muv
+        out["contrast"], out["bright_share"] = contrast, bright
+        out["ratio_p10"], out["texture_r"] = ratio_p10, texture_r
+        out["snr"], out["shadow"], out["border"] = snr, shadow, border
+        out = out[good]
+        if out.size > MAX_DETECTIONS:
+            out = out[np.argsort(out["weight"])[::-1][:MAX_DETECTIONS]]
+        return out

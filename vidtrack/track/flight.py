@@ -1,0 +1,209 @@
+"""The flight tracker: detect, link, choose by the flight, measure, flag by statistics.
+
+One view's footage to the fields of a :class:`vidtrack.track.tracker.Track`, in one
+decode of the footage (frames decoded in a thread beside the detection: OpenCV releases
+the GIL while it decodes):
+
+1. **background** (:mod:`vidtrack.track.background`): the per-pixel median of
+   ``background_samples`` frames spread over the whole footage, and the noise of every
+   pixel (footage of up to 96 MB is decoded once and held for it; longer footage has its
+   samples read first, so memory stays flat in length);
+2. **detect** (:mod:`vidtrack.track.detect`): every frame's detections, measured where
+   they are found (weighted centroid, moments, photometric shadow test);
+3. **link** (:mod:`vidtrack.track.link`): detections into tracklets;
+4. **choose** (:mod:`vidtrack.track.choose`): the chain a flight explains, or the one
+   through the user's ``target``;
+5. **flag** (:mod:`vidtrack.track.flag`): each frame judged by statistics; the release.
+
+Every threshold is a field of :class:`vidtrack.track.settings.TrackerSettings`.
+"""
+
+import queue
+import threading
+
+import numpy as np
+
+from vidtrack.errors import TrackError
+from vidtrack.track._flags import BLADE
+from vidtrack.track.background import estimate_background, sample_background, sample_indices
+from vidtrack.track.choose import choose
+from vidtrack.track.detect import Detector
+from vidtrack.track.flag import judge
+from vidtrack.track.link import link
+from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
+
+__all__ = ["track_flight"]
+
+#: Frames decoded ahead of the detection (a bounded queue: memory flat in length).
+_AHEAD = 8
+
+#: Footage that fits in this many bytes is decoded once, held, and its background taken
+#: from the frames held; longer footage has its background samples read first.
+HOLD_BYTES = 96 * 2 ** 20
+
+_TOP_NOTE = ("release: not looked for in the top view (it sees the rotor's plane edge-on); "
+             "the front view's is carried over")
+
+
+def _frames(source, cancel):
+    """The source's frames, decoded in a thread a few frames ahead."""
+    q = queue.Queue(maxsize=_AHEAD)
+    stop = threading.Event()
+    end = object()
+
+    def work():
+        try:
+            for frame in source:
+                while not stop.is_set():
+                    try:
+                        q.put(frame, timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+                if stop.is_set():
+                    return
+            q.put(end)
+        except BaseException as err:      # noqa: BLE001 (re-raised in the caller)
+            q.put(err)
+
+    th = threading.Thread(target=work, name="vidtrack-decode", daemon=True)
+    th.start()
+    try:
+        while True:
+            item = q.get()
+            if item is end:
+                return
+            if isinstance(item, BaseException):
+                raise item
+            if cancel is not None and cancel.is_set():
+                from vidtrack.track._pass import Cancelled
+
+                raise Cancelled()
+            yield item
+    finally:
+        stop.set()
+        th.join(timeout=5.0)
+
+
+def _held_background(held, samples):
+    """The background of footage held whole: samples spread over it, pairs beside them."""
+    if len(held) < 3:
+        raise TrackError(f"the background needs at least 3 frames, the footage has "
+                         f"{len(held)}")
+    idx = sample_indices(len(held), samples)
+    pairs = [(held[i], held[i + 1 if i + 1 < len(held) else i - 1]) for i in idx[::2]]
+    return estimate_background([held[i] for i in idx], pairs=pairs, frames=idx)
+
+
+def _blade_mask(blade_region, shape):
+    if blade_region is None:
+        return None
+    if isinstance(blade_region, np.ndarray):
+        return blade_region.astype(bool)
+    cu, cv, r = blade_region
+    vv, uu = np.mgrid[0:shape[0], 0:shape[1]]
+    return (uu - cu) ** 2 + (vv - cv) ** 2 <= r * r
+
+
+def track_flight(source, *, settings=None, background=None, view=None, target=None,
+                 blade_region=None, cancel=None, what="the object"):
+    """Track one view with the flight tracker; the :class:`Track`'s fields as a dict.
+
+    Parameters
+    ----------
+    source : vidtrack.footage.base.FrameSource
+        An open source with a time base.
+    settings : TrackerSettings, optional
+    background : vidtrack.track.background.Background, optional
+        Default: :func:`~vidtrack.track.background.sample_background` over the whole
+        footage with ``settings.background_samples`` frames.
+    view : str, optional
+        The view's name (the ``top`` view's release is not looked for).
+    target : (int, (float, float)), optional
+        ``(file frame, (u_px, v_px))`` of the object.
+    blade_region : numpy.ndarray or (float, float, float), optional
+        Where the blade sweeps: frames whose point lies there are flagged BLADE.
+    cancel : threading.Event, optional
+    what : str
+        What the scene calls the object, for messages.
+
+    Returns
+    -------
+    dict
+        As :func:`vidtrack.track.tracker.track_parts` returns.
+    """
+    settings = settings or TrackerSettings()
+    held = None
+    if background is None:
+        frame_bytes = int(np.prod(source.shape)) * np.dtype(source.dtype).itemsize
+        if len(source) * frame_bytes <= HOLD_BYTES:
+            held = list(_frames(source, cancel))
+            background = _held_background(held, settings.background_samples)
+        else:
+            background = sample_background(source, samples=settings.background_samples)
+    if tuple(background.shape) != tuple(source.shape):
+        raise TrackError(f"{view or 'view'}: the background is {background.shape[1]}x"
+                         f"{background.shape[0]} px, the footage {source.shape[1]}x"
+                         f"{source.shape[0]}")
+    detector = Detector(background, settings)
+    frames = held if held is not None else _frames(source, cancel)
+    detections = [detector(frame) for frame in frames]
+    del held, frames
+    n = len(detections)
+    fnums = np.asarray(source.frame_numbers)[:n]
+    name = view or "view"
+    if n == 0 or not any(len(d) for d in detections):
+        raise TrackError(f"{name}: nothing moves in frames {fnums[0]}..{fnums[-1]}: no pixel "
+                         f"differs from the background by more than {settings.k_sigma:g} x "
+                         f"its noise ({background.noise_sigma:.2g} grey levels)")
+    tracklets = link(detections, settings, frame_shape=source.shape)
+    try:
+        chain, others = choose(detections, tracklets, settings, target=target,
+                               frame_numbers=fnums, what=what)
+    except TrackError as err:
+        raise TrackError(f"{name}: {err}") from None
+    flags, release, scatter, notes = judge(chain, detections, n, settings,
+                                           find_release=view != "top")
+    u, v = chain.u.copy(), chain.v.copy()
+    area = np.full(n, np.nan)
+    angle = np.full(n, np.nan)
+    length = np.full(n, np.nan)
+    contrast = []
+    for i in chain.frames:
+        d = detections[i][chain.pick[i]]
+        area[i] = d["weight"]
+        muu, mvv, muv = float(d["muu"]), float(d["mvv"]), float(d["muv"])
+        angle[i] = 0.5 * np.arctan2(2.0 * muv, muu - mvv)
+        lam = 0.5 * (muu + mvv) + np.hypot(0.5 * (muu - mvv), muv)
+        length[i] = np.sqrt(12.0 * max(lam, 0.0))
+        contrast.append(float(d["contrast"]))
+    mask = _blade_mask(blade_region, source.shape)
+    if mask is not None:
+        for i in chain.frames:
+            r, c = int(round(v[i])), int(round(u[i]))
+            if 0 <= r < mask.shape[0] and 0 <= c < mask.shape[1] and mask[r, c]:
+                flags[i] |= BLADE
+    times = np.asarray(source.times_s)[:n]
+    notes = [f"tracker: {ALGORITHM_VERSION}; {len(tracklets)} tracklets, "
+             f"{len(others) + 1} chains considered; {chain.frames.size} frames in the "
+             f"object's chain, {int(np.count_nonzero(flags == 0))} unflagged",
+             f"background: median of {background.n_samples} frames spread over the "
+             f"footage"] + notes
+    if view == "top":
+        rel_note = _TOP_NOTE
+    elif release is None:
+        rel_note = "first seen in free flight"
+    else:
+        rel_note = "where the path's sharp bend ends"
+    first = int(chain.frames[0])
+    rel_pos = release if release is not None else (None if view == "top" else first)
+    columns = {"frame": fnums, "t_s": times, "u_px": u, "v_px": v, "area_px": area,
+               "angle_rad": angle, "length_px": length, "flags": flags.astype(np.int32)}
+    return dict(columns=columns, view=view,
+                release_frame=None if rel_pos is None else int(fnums[rel_pos]),
+                release_note=rel_note,
+                release_t_s=None if rel_pos is None else float(times[rel_pos]),
+                fps=source.fps, frame_shape=tuple(source.shape),
+                noise_sigma=float(background.noise_sigma), k_sigma=float(settings.k_sigma),
+                straw_level=float(np.median(contrast)) if contrast else float("nan"),
+                scatter_px=float(scatter), notes=tuple(notes))

@@ -1,0 +1,96 @@
+"""Local quadratic paths in pixel time-space, for choosing and for flagging.
+
+A thrown object's image moves smoothly: over a few frames its pixel position is a
+quadratic in time (gravity, drag and perspective change slowly). :func:`local_quadratic`
+fits, for every point of a path, a quadratic in time through its neighbours within a
+window (leaving the point itself out), all points at once (batched 3 x 3 normal
+equations in time centred on the point, so the fit is well conditioned), and returns
+each point's prediction and the local acceleration.
+"""
+
+import numpy as np
+
+__all__ = ["local_quadratic", "robust_scale", "MAD_TO_SIGMA"]
+
+#: From a median absolute deviation to the standard deviation of a normal law.
+MAD_TO_SIGMA = 1.482602218505602
+
+
+def robust_scale(x, *, floor=0.0):
+    """``1.4826 * median |x - median(x)|`` of the finite values, at least ``floor``."""
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return float(floor)
+    return max(float(MAD_TO_SIGMA * np.median(np.abs(x - np.median(x)))), float(floor))
+
+
+def local_quadratic(t, y, window, *, leave_out=True, weights=None):
+    """Each point's value predicted by a quadratic through its neighbours.
+
+    Parameters
+    ----------
+    t : (N,) array
+        Times (any unit; frames here), increasing.
+    y : (N,) or (N, D) array
+        Values at those times.
+    window : int
+        Neighbours within ``window`` positions either side are used.
+    leave_out : bool, keyword-only
+        Leave the point itself out of its own fit (a prediction, for outlier tests).
+    weights : (N,) array, optional
+        Weights of the points as neighbours (0 leaves a point out of every fit).
+
+    Returns
+    -------
+    pred : (N,) or (N, D) array
+        The fit's value at each point's time; NaN where fewer than 3 neighbours (or 2,
+        giving a line) are there.
+    acc : (N,) or (N, D) array
+        Twice the quadratic coefficient: the acceleration (units of y per time^2);
+        0 where a line was fitted, NaN where nothing was.
+    """
+    t = np.asarray(t, float)
+    y = np.asarray(y, float)
+    one = y.ndim == 1
+    y2 = y[:, None] if one else y
+    n = t.size
+    w = np.ones(n) if weights is None else np.asarray(weights, float)
+    offs = np.arange(-window, window + 1)
+    if leave_out:
+        offs = offs[offs != 0]
+    j = np.arange(n)[:, None] + offs[None, :]
+    inside = (j >= 0) & (j < n)
+    jc = np.clip(j, 0, n - 1)
+    m = inside * w[jc]
+    dt = t[jc] - t[:, None]
+    s = [np.sum(m * dt ** k, axis=1) for k in range(5)]
+    a = np.stack([np.stack([s[0], s[1], s[2]], -1), np.stack([s[1], s[2], s[3]], -1),
+                  np.stack([s[2], s[3], s[4]], -1)], -2)
+    count = np.sum(m > 0, axis=1)
+    pred = np.full(y2.shape, np.nan)
+    acc = np.full(y2.shape, np.nan)
+    yj = y2[jc]
+    b = np.stack([np.sum((m * dt ** k)[..., None] * yj, axis=1) for k in range(3)], 1)
+    quad = count >= 3
+    if quad.any():
+        det = np.linalg.det(a[quad])
+        ok = np.abs(det) > 1e-12 * np.maximum(s[4][quad] * s[0][quad] * s[2][quad], 1e-300)
+        idx = np.flatnonzero(quad)[ok]
+        if idx.size:
+            coef = np.linalg.solve(a[idx], b[idx])
+            pred[idx] = coef[:, 0]
+            acc[idx] = 2.0 * coef[:, 2]
+    line = (count == 2) | (quad & ~np.isfinite(pred[:, 0]))
+    if line.any():
+        a2 = a[line][:, :2, :2]
+        det = np.linalg.det(a2)
+        ok = np.abs(det) > 1e-12
+        idx = np.flatnonzero(line)[ok]
+        if idx.size:
+            coef = np.linalg.solve(a2[ok], b[idx][:, :2])
+            pred[idx] = coef[:, 0]
+            acc[idx] = 0.0
+    if one:
+        return pred[:, 0], acc[:, 0]
+    return pred, acc

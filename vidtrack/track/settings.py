@@ -1,0 +1,151 @@
+"""Every threshold of the flight tracker, with its unit and meaning, in one frozen object.
+
+The flight tracker (:mod:`vidtrack.track.flight`) is one mechanism in five steps: detect
+what differs from the background, link detections into tracklets, choose the chain of
+detections a free flight explains, measure each frame, flag each frame by statistics.
+Each step reads its thresholds from one :class:`TrackerSettings`; nothing is typed inline.
+The settings and :data:`ALGORITHM_VERSION` together identify what computed a track: they
+go into the run's stage cache key, so a track made by other code or other settings is
+never reused.
+"""
+
+from dataclasses import asdict, dataclass, fields
+
+from vidtrack.errors import VidtrackError
+
+__all__ = ["TrackerSettings", "ALGORITHM_VERSION"]
+
+#: Changes whenever the flight tracker's results may change for the same settings.
+ALGORITHM_VERSION = "flight-1"
+
+
+@dataclass(frozen=True)
+class TrackerSettings:
+    """The flight tracker's settings (every one named, with its unit).
+
+    Attributes
+    ----------
+    k_sigma : float
+        Detection threshold: a pixel is foreground where it differs from the background by
+        more than ``k_sigma`` times its noise (noise units). 5 keeps false pixels to about
+        one in 10^6 for Gaussian noise.
+    k_grow : float
+        Hysteresis: a detection is the connected pixels beyond ``k_grow`` times the noise
+        round at least one beyond ``k_sigma`` (noise units), so a faint edge belongs to its
+        object without lowering the seed threshold.
+    min_area_px : int
+        Smallest detection, in pixels beyond ``k_grow`` (px).
+    min_snr : float
+        Smallest signal-to-noise ratio of a detection: the sum of its pixels' differences
+        from the background in noise units over the square root of their count. A
+        compression speck (5 pixels about 3 noise units off) scores about 7; a ball 5 px
+        across 25 grey levels darker, 50.
+    background_samples : int
+        Frames in the background's per-pixel median, spread over the whole footage.
+    shadow_ratio_min : float
+        The photometric shadow test: a detection all of whose pixels are darker than the
+        background, by a factor no smaller than this (frame / background, 10th
+        percentile), is shadow-like: a shadow dims the background, an object of its
+        own grey level hides it. 0.5 takes a dimming to half as a shadow.
+    shadow_texture_min : float
+        Where the background has texture (its standard deviation over the detection at
+        least 3 times the noise), the detection is shadow-like only when the frame's
+        texture correlates with the background's at least this much (Pearson r).
+    gate_px : float
+        Linking: smallest gate round a tracklet's predicted position (px).
+    gate_sizes : float
+        Linking and growing: the gate also spans this many object sizes (a size is the
+        square root of the detection's area; dimensionless).
+    max_step : float
+        Fastest motion looked for, as a share of the frame's diagonal per frame: a new
+        tracklet (speed unknown) takes its second detection within it.
+    max_gap : int
+        Frames a tracklet or a chain may go without a detection before it ends (frames).
+    link_min_frames : int
+        Shortest tracklet that seeds a chain (frames).
+    predict_frames : int
+        A chain's next position is extrapolated from a quadratic through its last this
+        many points (frames).
+    min_travel_sizes : float
+        A chain is a flight only when it travels at least this many of its own sizes
+        (dimensionless): something that rocks in place is not thrown.
+    flight_residual_px : float
+        Choosing: a chain's flight score counts the frames within this distance (px) of
+        the local quadratic path through their neighbours, or ``flight_residual_sizes``
+        of the object's size, the larger.
+    flight_residual_sizes : float
+        The same distance as a share of the object's size (square root of its pixel
+        count): a large object's centroid wanders more as its shape turns.
+    ambiguity_ratio : float
+        Two chains whose flight scores are within this ratio of each other (and neither a
+        shadow nor much smaller) are ambiguous: the tracker stops and names both, with the
+        ``target`` line that picks one.
+    seeds_max : int
+        At most this many tracklets (the longest travellers) seed chains (count).
+    k_flag : float
+        Flagging: a frame is an outlier when its distance from the local path of its
+        neighbours exceeds ``k_flag`` times the chain's robust scatter (noise units), and
+        unlike the object when its size differs from that of its neighbours by more than
+        ``k_flag`` times their robust scatter of log size.
+    flag_floor_px : float
+        A frame nearer its neighbours' path than this (px) is never an outlier, however
+        small the chain's scatter.
+    size_floor : float
+        The size test's smallest scatter of log area (dimensionless).
+    path_window : int
+        Frames either side of a frame in its local path fit (frames).
+    """
+
+    k_sigma: float = 5.0
+    k_grow: float = 4.0
+    min_area_px: int = 4
+    min_snr: float = 12.0
+    background_samples: int = 25
+    shadow_ratio_min: float = 0.5
+    shadow_texture_min: float = 0.6
+    gate_px: float = 6.0
+    gate_sizes: float = 1.5
+    max_step: float = 0.15
+    max_gap: int = 5
+    link_min_frames: int = 4
+    predict_frames: int = 8
+    min_travel_sizes: float = 2.0
+    flight_residual_px: float = 1.5
+    flight_residual_sizes: float = 0.2
+    ambiguity_ratio: float = 1.25
+    seeds_max: int = 12
+    k_flag: float = 5.0
+    flag_floor_px: float = 0.5
+    size_floor: float = 0.08
+    path_window: int = 6
+
+    def __post_init__(self):
+        for f in fields(self):
+            value = getattr(self, f.name)
+            kind = int if f.type in ("int", int) else float
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise VidtrackError(f"track.{f.name} must be a number, got {value!r}")
+            if kind is int and int(value) != value:
+                raise VidtrackError(f"track.{f.name} must be a whole number, got {value!r}")
+            if not value > 0 or value != value or value == float("inf"):
+                raise VidtrackError(f"track.{f.name} must be a finite number > 0, got {value!r}")
+        if self.k_grow > self.k_sigma:
+            raise VidtrackError(f"track.k_grow must be at most track.k_sigma "
+                                f"({self.k_sigma:g}), got {self.k_grow:g}")
+        if self.shadow_ratio_min >= 1.0 or self.shadow_texture_min >= 1.0:
+            raise VidtrackError("track.shadow_ratio_min and track.shadow_texture_min must be "
+                                "below 1")
+
+    @classmethod
+    def from_mapping(cls, mapping, *, where="[track]"):
+        """Settings from a ``[track]`` table; an unknown name is refused, naming it."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(mapping) - known)
+        if unknown:
+            raise VidtrackError(f"{where}: unknown setting {unknown[0]!r}; known: "
+                                f"{', '.join(sorted(known))}")
+        return cls(**dict(mapping))
+
+    def to_dict(self):
+        """The settings as JSON-ready values (for the cache key and the notes)."""
+        return asdict(self)
