@@ -187,6 +187,20 @@ def test_cases_and_clip_names():
     assert "rules" in real.engines_to_run()
 
 
+def test_an_engine_refusing_or_raising_is_a_row_not_the_end_of_the_run():
+    def refused():
+        raise VidtrackError("front: no usable point\nmore")
+
+    def broken():
+        raise ValueError("a bug")
+
+    tr, cpu, wall, status, msg = _score.timed_track(refused, "rules", view="front")
+    assert tr is None and status == "failed" and msg == "front: no usable point"
+    assert cpu >= 0.0 and wall >= 0.0
+    tr, *_, status, msg = _score.timed_track(broken, "rules", view="front")
+    assert tr is None and status == "error" and msg == "ValueError: a bug"
+
+
 # ------------------------------------------------------------------- the command
 
 COLUMNS = ["clip", "engine", "status", "flight_frames", "unflagged", "median_px", "p95_px",

@@ -6,9 +6,12 @@ distance summary, the drag-free fits, and one engine's timed run on a clip.
 """
 
 import dataclasses
+import logging
 import time
 
 import numpy as np
+
+log = logging.getLogger(__name__)
 
 #: Fewest points a quadratic (or the two-arc fit) is fitted to; fewer gives NaN.
 MIN_FIT_POINTS = 5
@@ -175,19 +178,25 @@ def timed_decode(open_fn):
 
 
 def timed_track(open_fn, engine, *, view, target=None):
-    """One engine on one clip: ``(track or None, CPU s, wall s, error text)``.
+    """One engine on one clip: ``(track or None, CPU s, wall s, status, message)``.
 
-    A :class:`vidtrack.errors.VidtrackError` (the engine found no object, or refused)
-    is not raised: it is the row's result, its message returned in place of a track.
+    Status ``"ok"``; ``"failed"`` for a :class:`vidtrack.errors.VidtrackError` (the
+    engine found no object, or refused: what ``vidtrack fit`` exits 2 on); ``"error"``
+    for any other exception (a bug, its traceback logged at WARNING), so that one
+    engine's crash on one clip does not lose the rest of the scoreboard. Neither is
+    raised: the message is returned in place of a track.
     """
     from vidtrack.errors import VidtrackError
     from vidtrack.track.tracker import track
 
     t0, w0 = time.process_time(), time.perf_counter()
+    tr, status, msg = None, "ok", ""
     try:
         with open_fn() as src:
             tr = track(src, view=view, target=target, **engine_kwargs(engine))
-        err = ""
     except VidtrackError as exc:
-        tr, err = None, str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-    return tr, time.process_time() - t0, time.perf_counter() - w0, err
+        status, msg = "failed", (str(exc).splitlines() or [type(exc).__name__])[0]
+    except Exception as exc:                        # noqa: BLE001  (reported, not hidden)
+        log.warning("engine %s on %s view raised", engine, view, exc_info=True)
+        status, msg = "error", f"{type(exc).__name__}: {exc}".splitlines()[0]
+    return tr, time.process_time() - t0, time.perf_counter() - w0, status, msg

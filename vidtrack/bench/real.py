@@ -8,19 +8,20 @@ checkout unless given; the footage is read there, never copied. A clip whose fil
 absent is skipped, saying so; a clip an engine refuses (exit 2 in ``vidtrack fit``)
 gives a ``failed`` row with the message.
 
-Columns of ``bench_track_real.csv``: ``clip``, ``engine``, ``status`` (ok, failed,
-skipped), ``flight_frames`` (frames of the flight, as the reference has it),
-``unflagged`` (of those, frames with flags 0 and a position) and ``unflagged_frac``,
-``scored`` (unflagged flight frames with a reference point), ``median_px``,
-``p95_px``, ``max_px``, ``rms_px`` (distance from the reference over the scored frames,
-px), ``fit`` (what the next three are), ``fit_track`` (from the track's unflagged flight
+Columns of ``bench_track_real.csv``: ``clip``, ``engine``, ``status`` (ok; failed: the
+engine refused the clip; error: it raised something else, logged; skipped),
+``flight_frames`` (frames of the flight, as the reference has it), ``unflagged`` (of
+those, frames with flags 0 and a position) and ``unflagged_frac``, ``scored``
+(unflagged flight frames with a reference point), ``median_px``, ``p95_px``,
+``max_px``, ``rms_px`` (distance from the reference over the scored frames, px),
+``fit`` (what the next figures are), ``fit_track`` (from the track's unflagged flight
 points), ``fit_ref`` (from the reference's own points), ``fit_ratio`` (track / ref),
 ``fit_ref_same`` (from the reference's points on the frames the track's figure used:
-what a perfect track flagged alike gives),
-``track_cpu_s`` (CPU seconds of the ``track()`` call, opening the footage included),
-``track_wall_s``, ``decode_cpu_s`` (CPU seconds to decode the same frames, measured in
-the same run), ``x_decode`` (decode_cpu_s / track_cpu_s: the tracker's speed as a
-share of decoding's; 1 is the limit), ``note``.
+what a perfect track flagged alike gives), ``track_cpu_s`` (CPU seconds of the
+``track()`` call, opening the footage included), ``track_wall_s``, ``decode_cpu_s``
+(CPU seconds to decode the same frames, measured in the same run), ``x_decode``
+(decode_cpu_s / track_cpu_s: the tracker's speed as a share of decoding's; 1 is the
+limit), ``note``.
 
 Per clip (reference; alignment; ``fit``):
 
@@ -404,10 +405,10 @@ def _rows_of(name, engines, open_fn, score_fn, *, view, target, progress):
     dec = timed_decode(open_fn)
     rows = []
     for engine in engines:
-        tr, cpu, wall, err = timed_track(open_fn, engine, view=view, target=target)
+        tr, cpu, wall, status, msg = timed_track(open_fn, engine, view=view, target=target)
         row = {"clip": name, "engine": engine}
         if tr is None:
-            row.update(status="failed", note=err)
+            row.update(status=status, note=msg)
         else:
             row.update(status="ok", **score_fn(tr).to_row())
         row.update(track_cpu_s=cpu, track_wall_s=wall, decode_cpu_s=dec,
@@ -535,8 +536,8 @@ def format_scoreboard(table):
                 "ref": _num(r["fit_ref"], ".4g"), "ratio": _num(r["fit_ratio"], ".3f"),
                 "ref same": _num(r["fit_ref_same"], ".4g")})
         else:
-            line.update({"unflagged": "failed"})
-            failed.append(f"  failed {r['clip']} ({r['engine']}): {r['note']}")
+            line.update({"unflagged": r["status"]})
+            failed.append(f"  {r['status']} {r['clip']} ({r['engine']}): {r['note']}")
         line.update({"cpu s": _num(r["track_cpu_s"], ".2f"),
                      "x decode": _num(r["x_decode"], ".2f")})
         shown.append(line)
