@@ -8,10 +8,12 @@ for its measurement so that its faint edge is counted on every side alike.
 
 Each detection is measured where it is found, in the one pass over the footage:
 
-- its **weighted centroid and second moments**, each pixel weighted by its difference
-  from the background clipped at the detection's own contrast (the 90th percentile of
-  its differences): the pixel's share of the object (its coverage) for an object of one
-  grey level, and a bounded weight for a highlight or texture inside it;
+- its **weighted centroid and second moments**, each pixel weighted by its share of the
+  object (its coverage), ``(f - b) / (L - b)`` with ``L`` the object's own grey level
+  (the 90th percentile of its pixels, towards its polarity), for an object of one
+  polarity; an object of both (a highlight on a dark ball) weighs each pixel by its
+  difference from the background clipped at the detection's contrast (the 90th
+  percentile of its differences);
 - its **photometric shadow test**: a shadow dims the background by a smooth factor and
   keeps its texture; an object hides it. A detection is shadow-like when all its pixels
   are darker than the background by a factor no smaller than ``shadow_ratio_min``
@@ -118,6 +120,21 @@ class Detector:
         a = np.abs(d)
         level = _percentile_by_label(a, li, m, 0.9)
         w = np.minimum(a, level[li]) / np.maximum(level[li], 1e-9)
+        # coverage against the object's own grey level where it has one polarity: a
+        # pixel's share of the object is (f - b) / (L - b), whatever the background's
+        # texture under it (a weight of |f - b| would lean towards the darker texture)
+        fv = f[ys, xs].astype(np.float64)
+        bgv = self.bg[ys, xs].astype(np.float64)
+        sign = np.where(np.bincount(li, d, m) >= 0, 1.0, -1.0)
+        # (an object of two polarities, a highlight on a dark ball, keeps the bounded
+        # weight: it has no one grey level)
+        other = np.bincount(li, (sign[li] * d < -self.grow_level[ys, xs]), m)
+        one_level = other <= 0.02 * np.bincount(li, minlength=m)
+        obj = sign[li] * _percentile_by_label(sign[li] * fv, li, m, 0.9)[li]
+        span = obj - bgv
+        solid = ((sign[li] * span > 2.0 * self.sigma[ys, xs]) & (sign[li] * d >= 0)
+                 & one_level[li])
+        w = np.where(solid, np.clip(d / np.where(solid, span, 1.0), 0.0, 1.0), w)
         xf, yf = xs.astype(np.float64), ys.astype(np.float64)
         sw = np.bincount(li, w, m)
         good = sw > 0
@@ -133,8 +150,6 @@ class Detector:
         contrast = np.bincount(li, w * d, m) / np.maximum(sw, 1e-12)
         # the photometric test, over the component's own pixels (not the grown ring)
         core = own[ys, xs] > 0
-        bgv = self.bg[ys, xs].astype(np.float64)
-        fv = f[ys, xs].astype(np.float64)
         ratio = fv / np.maximum(bgv, 1.0)
         ratio_p10 = _percentile_by_label(ratio[core], li[core], m, 0.1)
         dark_all = np.bincount(li, core & (d >= 0), m) == 0
