@@ -531,7 +531,7 @@ def format_scoreboard(table):
                 "unflagged": f"{int(r['unflagged'])}/{int(r['flight_frames'])} "
                              f"({_num(100 * r['unflagged_frac'], '.0f')}%)",
                 "median px": _num(r["median_px"], ".2f"), "p95 px": _num(r["p95_px"], ".2f"),
-                "max px": _num(r["max_px"], ".1f"), "rms px": _num(r["rms_px"], ".2f"),
+                "max px": _num(r["max_px"], ".2f"), "rms px": _num(r["rms_px"], ".2f"),
                 "fit": r["fit"], "track": _num(r["fit_track"], ".4g"),
                 "ref": _num(r["fit_ref"], ".4g"), "ratio": _num(r["fit_ratio"], ".3f"),
                 "ref same": _num(r["fit_ref_same"], ".4g")})
