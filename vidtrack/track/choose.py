@@ -31,8 +31,8 @@ __all__ = ["Chain", "grow", "choose"]
 
 class Chain:
     """A chain: ``pick[i]`` is the index of its detection in frame position ``i`` (-1:
-    none), with its positions, sizes, shadow marks and weights per frame (NaN, False
-    and 0 where it has none)."""
+    none), with its positions, sizes, shadow marks, weights and the spreads along its
+    major and minor axes (px) per frame (NaN, False and 0 where it has none)."""
 
     def __init__(self, pick, detections):
         self.pick = pick
@@ -42,12 +42,18 @@ class Chain:
         self.size = np.full(n, np.nan)
         self.weight = np.zeros(n)
         self.shadow = np.zeros(n, bool)
+        self.major = np.full(n, np.nan)
+        self.minor = np.full(n, np.nan)
         for i in np.flatnonzero(pick >= 0):
             d = detections[i][pick[i]]
             self.u[i], self.v[i] = d["u"], d["v"]
             self.size[i] = np.sqrt(max(int(d["area"]), 1))
             self.weight[i] = d["weight"]
             self.shadow[i] = d["shadow"]
+            half = 0.5 * (float(d["muu"]) + float(d["mvv"]))
+            root = float(np.hypot(0.5 * (float(d["muu"]) - float(d["mvv"])), float(d["muv"])))
+            self.major[i] = np.sqrt(max(half + root, 0.0))
+            self.minor[i] = np.sqrt(max(half - root, 0.0))
         self.frames = np.flatnonzero(pick >= 0)
         self.score = 0.0
         self.explained = np.zeros(n, bool)

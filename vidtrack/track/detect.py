@@ -32,7 +32,7 @@ the image is kept, so memory does not grow with the footage's length.
 import cv2
 import numpy as np
 
-__all__ = ["Detector", "DETECTION_DTYPE", "MAX_DETECTIONS"]
+__all__ = ["Detector", "DETECTION_DTYPE", "MAX_DETECTIONS", "pixel_weights"]
 
 #: At most this many detections are kept per frame (the strongest by total weight).
 MAX_DETECTIONS = 48
@@ -41,12 +41,14 @@ MAX_DETECTIONS = 48
 #: central moments (px^2), contrast (grey levels, signed: + brighter than the
 #: background), the share of the weight brighter than the background, the 10th
 #: percentile of frame / background, the texture correlation, whether it is
-#: shadow-like, and whether it touches the frame's border.
+#: shadow-like, whether it touches the frame's border, its contrast (the 90th percentile
+#: of its |difference|) and its own grey level (NaN for an object of two polarities).
 DETECTION_DTYPE = np.dtype([("u", "f8"), ("v", "f8"), ("weight", "f8"), ("area", "i4"),
                             ("muu", "f8"), ("mvv", "f8"), ("muv", "f8"),
                             ("contrast", "f4"), ("bright_share", "f4"),
                             ("ratio_p10", "f4"), ("texture_r", "f4"),
-                            ("snr", "f4"), ("shadow", "?"), ("border", "?")])
+                            ("snr", "f4"), ("shadow", "?"), ("border", "?"),
+                            ("level", "f4"), ("obj_level", "f4")])
 
 _KERNEL3 = np.ones((3, 3), np.uint8)
 
@@ -61,6 +63,36 @@ def _percentile_by_label(values, labels, n, q):
     has = counts > 0
     out[has] = values[order][idx[has]]
     return out
+
+
+def pixel_weights(d, b, sigma, level, obj):
+    """Each pixel's share of its object.
+
+    Parameters
+    ----------
+    d, b, sigma : arrays
+        The pixel's difference from the background, the background, its noise.
+    level : array
+        The object's contrast (the 90th percentile of its ``|d|``).
+    obj : array
+        The object's own grey level ``L``, NaN for an object of two polarities.
+
+    Returns
+    -------
+    array
+        ``(f - b) / (L - b)`` clipped to [0, 1] where the object has one level that
+        stands 2 noises clear of the background there (its coverage, whatever the
+        background's texture under it: a weight of ``|d|`` would lean towards the
+        darker texture); elsewhere ``min(|d|, level) / level``, bounded (a highlight
+        or texture inside an object of two polarities).
+    """
+    a = np.abs(d)
+    w = np.minimum(a, level) / np.maximum(level, 1e-9)
+    span = obj - b
+    with np.errstate(invalid="ignore"):
+        pol = np.sign(span)
+        solid = np.isfinite(span) & (np.abs(span) > 2.0 * sigma) & (pol * d >= 0)
+    return np.where(solid, np.clip(d / np.where(solid, span, 1.0), 0.0, 1.0), w)
 
 
 class Detector:
@@ -119,22 +151,15 @@ class Detector:
         d = diff[ys, xs].astype(np.float64)
         a = np.abs(d)
         level = _percentile_by_label(a, li, m, 0.9)
-        w = np.minimum(a, level[li]) / np.maximum(level[li], 1e-9)
-        # coverage against the object's own grey level where it has one polarity: a
-        # pixel's share of the object is (f - b) / (L - b), whatever the background's
-        # texture under it (a weight of |f - b| would lean towards the darker texture)
         fv = f[ys, xs].astype(np.float64)
         bgv = self.bg[ys, xs].astype(np.float64)
         sign = np.where(np.bincount(li, d, m) >= 0, 1.0, -1.0)
-        # (an object of two polarities, a highlight on a dark ball, keeps the bounded
-        # weight: it has no one grey level)
+        # (an object of two polarities, a highlight on a dark ball, has no one level)
         other = np.bincount(li, (sign[li] * d < -self.grow_level[ys, xs]), m)
         one_level = other <= 0.02 * np.bincount(li, minlength=m)
-        obj = sign[li] * _percentile_by_label(sign[li] * fv, li, m, 0.9)[li]
-        span = obj - bgv
-        solid = ((sign[li] * span > 2.0 * self.sigma[ys, xs]) & (sign[li] * d >= 0)
-                 & one_level[li])
-        w = np.where(solid, np.clip(d / np.where(solid, span, 1.0), 0.0, 1.0), w)
+        obj = sign * _percentile_by_label(sign[li] * fv, li, m, 0.9)
+        obj = np.where(one_level, obj, np.nan)
+        w = pixel_weights(d, bgv, self.sigma[ys, xs], level[li], obj[li])
         xf, yf = xs.astype(np.float64), ys.astype(np.float64)
         sw = np.bincount(li, w, m)
         good = sw > 0
@@ -180,6 +205,7 @@ class Detector:
         out["contrast"], out["bright_share"] = contrast, bright
         out["ratio_p10"], out["texture_r"] = ratio_p10, texture_r
         out["snr"], out["shadow"], out["border"] = snr, shadow, border
+        out["level"], out["obj_level"] = level, obj
         out = out[good]
         if out.size > MAX_DETECTIONS:
             out = out[np.argsort(out["weight"])[::-1][:MAX_DETECTIONS]]

@@ -7,8 +7,10 @@ Against the chain's own clean frames, two tests with one threshold, ``k_flag``:
   frame itself left out), beyond ``k_flag`` times the robust scatter of those distances
   (and beyond ``flag_floor_px``): OUTLIER;
 - **appearance** (first: the path test starts from the frames that pass it): the log of
-  each frame's size (pixels) against the median of its neighbours within twice
-  ``path_window`` frames, over its robust scatter (at least ``size_floor``): beyond ``k_flag``
+  each frame's size (pixels) and of its spreads along its major and minor axes (a
+  part touching it far out, a blade, stretches them) against the median of its
+  neighbours' within twice ``path_window`` frames, and the share of its weight that
+  its shape's fit left out (:mod:`vidtrack.track.measure`) against the chain's, over its robust scatter (at least ``size_floor``): beyond ``k_flag``
   (grown or shrunk at a stroke: something touching, part hidden), APPEARANCE; so is a
   shadow-like detection (:mod:`vidtrack.track.detect`) in a chain that is not one.
 
@@ -25,6 +27,7 @@ the first frame after the last of them is the release; before it, PRE_RELEASE.
 import numpy as np
 
 from vidtrack.track._flags import APPEARANCE, BORDER, LOST, OUTLIER, PRE_RELEASE
+from vidtrack.track.measure import residual_outliers
 from vidtrack.track.path import local_quadratic, robust_scale
 
 __all__ = ["judge", "REASONS"]
@@ -88,7 +91,7 @@ def _release(idx, uv, settings):
     return int(min(end + settings.path_window // 2 + 1, idx.size - 1))
 
 
-def judge(chain, detections, n, settings, *, find_release=True):
+def judge(chain, detections, n, settings, *, find_release=True, residual=None):
     """Flags, reasons and the release of a chosen chain.
 
     Returns
@@ -112,7 +115,12 @@ def judge(chain, detections, n, settings, *, find_release=True):
             flags[i] |= BORDER
     uv = np.column_stack([chain.u[idx], chain.v[idx]])
     release = None
-    grown = _size_outliers(chain.size[idx], settings, 2 * settings.path_window)
+    grown = np.zeros(idx.size, bool)
+    if residual is not None:
+        grown |= residual_outliers(residual[idx], settings)
+    for measure in (chain.size, chain.major, chain.minor):
+        grown |= _size_outliers(np.maximum(measure[idx], 0.3), settings,
+                                2 * settings.path_window)
     flags[idx[grown]] |= APPEARANCE
     off, scatter = _path_outliers(idx, uv, settings, ~grown)
     flags[idx[off]] |= OUTLIER

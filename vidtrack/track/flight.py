@@ -13,7 +13,10 @@ the GIL while it decodes):
 3. **link** (:mod:`vidtrack.track.link`): detections into tracklets;
 4. **choose** (:mod:`vidtrack.track.choose`): the chain a flight explains, or the one
    through the user's ``target``;
-5. **flag** (:mod:`vidtrack.track.flag`): each frame judged by statistics; the release.
+5. **measure** (:mod:`vidtrack.track.measure`): each of its frames by the object's own
+   shape, what touches it left out (footage not held is decoded a second time, for the
+   chain's frames only);
+6. **flag** (:mod:`vidtrack.track.flag`): each frame judged by statistics; the release.
 
 Every threshold is a field of :class:`vidtrack.track.settings.TrackerSettings`.
 """
@@ -30,6 +33,7 @@ from vidtrack.track.choose import choose
 from vidtrack.track.detect import Detector
 from vidtrack.track.flag import judge
 from vidtrack.track.link import link
+from vidtrack.track.measure import chain_shape, measure_frame
 from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
 
 __all__ = ["track_flight"]
@@ -95,6 +99,31 @@ def _held_background(held, samples):
     return estimate_background([held[i] for i in idx], pairs=pairs, frames=idx)
 
 
+def _measure(source, held, detector, detections, chain, settings, cancel):
+    """Each chain frame measured by the object's shape (:mod:`vidtrack.track.measure`):
+    the chain's positions are replaced; returns per frame position (weight, muu, mvv,
+    muv) and the residual share (NaN where the chain has no detection). Footage not held
+    is decoded again for it, one frame at a time."""
+    n = len(detections)
+    shape = chain_shape(chain)
+    moments = np.full((n, 4), np.nan)
+    residual = np.full(n, np.nan)
+    wanted = set(int(i) for i in chain.frames)
+    frames = held if held is not None else _frames(source, cancel)
+    for i, frame in enumerate(frames):
+        if i not in wanted:
+            continue
+        det = detections[i][chain.pick[i]]
+        cu, cv, w, muu, mvv, muv, res = measure_frame(frame, detector.bg, detector.sigma,
+                                                      det, shape, settings)
+        chain.u[i], chain.v[i] = cu, cv
+        moments[i] = (w, muu, mvv, muv)
+        residual[i] = res
+        if i >= chain.frames[-1]:
+            break
+    return moments, residual
+
+
 def _blade_mask(blade_region, shape):
     if blade_region is None:
         return None
@@ -148,7 +177,7 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     detector = Detector(background, settings)
     frames = held if held is not None else _frames(source, cancel)
     detections = [detector(frame) for frame in frames]
-    del held, frames
+    del frames
     n = len(detections)
     fnums = np.asarray(source.frame_numbers)[:n]
     name = view or "view"
@@ -162,8 +191,10 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
                                frame_numbers=fnums, what=what)
     except TrackError as err:
         raise TrackError(f"{name}: {err}") from None
+    moments, residual = _measure(source, held, detector, detections, chain, settings, cancel)
+    del held
     flags, release, scatter, notes = judge(chain, detections, n, settings,
-                                           find_release=view != "top")
+                                           find_release=view != "top", residual=residual)
     u, v = chain.u.copy(), chain.v.copy()
     area = np.full(n, np.nan)
     angle = np.full(n, np.nan)
@@ -171,8 +202,8 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     contrast = []
     for i in chain.frames:
         d = detections[i][chain.pick[i]]
-        area[i] = d["weight"]
-        muu, mvv, muv = float(d["muu"]), float(d["mvv"]), float(d["muv"])
+        area[i] = moments[i, 0]
+        muu, mvv, muv = moments[i, 1:]
         angle[i] = 0.5 * np.arctan2(2.0 * muv, muu - mvv)
         lam = 0.5 * (muu + mvv) + np.hypot(0.5 * (muu - mvv), muv)
         length[i] = np.sqrt(12.0 * max(lam, 0.0))

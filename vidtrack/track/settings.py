@@ -70,18 +70,25 @@ class TrackerSettings:
         A chain is a flight only when it travels at least this many of its own sizes
         (dimensionless): something that rocks in place is not thrown.
     flight_residual_px : float
-        Choosing: a chain's flight score counts the frames within this distance (px) of
-        the local quadratic path through their neighbours, or ``flight_residual_sizes``
-        of the object's size, the larger.
+        Choosing: a chain's flight score is its travel between frames that lie within
+        this distance (px) of the local quadratic path through their neighbours, or
+        ``flight_residual_sizes`` of the object's size, the larger.
     flight_residual_sizes : float
         The same distance as a share of the object's size (square root of its pixel
         count): a large object's centroid wanders more as its shape turns.
     ambiguity_ratio : float
-        Two chains whose flight scores are within this ratio of each other (and neither a
-        shadow nor much smaller) are ambiguous: the tracker stops and names both, with the
+        Two chains seen at the same time whose flight scores, and whose signals (summed
+        weights), are within this ratio of each other (neither a shadow) are ambiguous: the tracker stops and names both, with the
         ``target`` line that picks one.
     seeds_max : int
         At most this many tracklets (the longest travellers) seed chains (count).
+    kernel_sigmas : float
+        Measuring: the object's elliptical kernel reaches this many of its spreads along
+        each axis (dimensionless); pixels beyond it (something touching) have no weight.
+        A rod's end lies at 1.73 spreads along it.
+    residual_floor : float
+        The smallest scatter of the residual share (the weight near the object outside
+        its kernel over all of it) that the appearance test divides by.
     k_flag : float
         Flagging: a frame is an outlier when its distance from the local path of its
         neighbours exceeds ``k_flag`` times the chain's robust scatter (noise units), and
@@ -114,6 +121,8 @@ class TrackerSettings:
     flight_residual_sizes: float = 0.2
     ambiguity_ratio: float = 1.25
     seeds_max: int = 12
+    kernel_sigmas: float = 2.5
+    residual_floor: float = 0.02
     k_flag: float = 5.0
     flag_floor_px: float = 0.5
     size_floor: float = 0.08

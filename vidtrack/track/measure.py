@@ -1,0 +1,149 @@
+"""Step 4 of the flight tracker: each frame of the object measured by its own shape.
+
+A detection is whatever is connected: the object, and anything touching it (a blade it
+rides, its shadow, a hand). The object's shape is known from its chain: the robust median
+of its detections' spreads along their major and minor axes (px). Each frame's point is
+the fit of that shape to the frame's pixels: an ellipse of those spreads, its
+orientation and centre free, moved to the weighted centroid of the pixels it holds (each
+pixel weighted by its share of the object, :func:`vidtrack.track.detect.pixel_weights`)
+until it stops (a mean shift with the object's own elliptical kernel, a robust
+M-estimate: the pixels beyond ``kernel_sigmas`` of the ellipse are outliers with no
+weight). An object alone is measured as its detection was (its kernel holds all of it);
+something touching it is left out.
+
+Each frame's **residual** is the share of the weight near the object (within twice the
+kernel) that lies outside the kernel: 0 for the object alone, large where something
+touches it. :mod:`vidtrack.track.flag` tests it against the chain's clean frames.
+"""
+
+import cv2
+import numpy as np
+
+from vidtrack.track.detect import pixel_weights
+from vidtrack.track.path import robust_scale
+
+__all__ = ["Shape", "measure_frame", "chain_shape"]
+
+#: Iterations of the mean shift at most, and the step (px) below which it has converged.
+_ITERATIONS = 12
+_CONVERGED_PX = 0.005
+
+_KERNEL3 = np.ones((3, 3), np.uint8)
+
+
+class Shape:
+    """The object's shape: spreads (px, standard deviations) along its major and minor
+    axes, the robust medians of its chain's detections."""
+
+    __slots__ = ("major", "minor")
+
+    def __init__(self, major, minor):
+        self.major, self.minor = float(major), float(minor)
+
+
+def chain_shape(chain):
+    """The :class:`Shape` of a chain's detections (robust medians)."""
+    idx = chain.frames
+    return Shape(np.nanmedian(chain.major[idx]), np.nanmedian(chain.minor[idx]))
+
+
+def measure_frame(frame, background, sigma, det, shape, settings):
+    """The object's point in one frame, by its shape's fit.
+
+    Parameters
+    ----------
+    frame : numpy.ndarray
+        The grey frame.
+    background, sigma : numpy.ndarray
+        The background image and each pixel's noise (float32).
+    det : numpy.void
+        The frame's detection of the object (:data:`~vidtrack.track.detect.DETECTION_DTYPE`).
+    shape : Shape
+    settings : vidtrack.track.settings.TrackerSettings
+        ``kernel_sigmas``, ``k_grow``.
+
+    Returns
+    -------
+    (u, v, weight, muu, mvv, muv, residual)
+        The centroid (px), the weight inside the kernel, its second central moments
+        (px^2) and the residual share.
+    """
+    k = settings.kernel_sigmas
+    # the kernel's spreads: the shape's, the minor one at least a pixel (blur, sampling)
+    a = max(shape.major, 0.5)
+    b = max(shape.minor, 0.5)
+    a, b = np.hypot(a, 0.5), np.hypot(b, 0.5)
+    reach = int(np.ceil(2.0 * k * a)) + 2
+    rows, cols = frame.shape
+    cu, cv = float(det["u"]), float(det["v"])
+    r0, r1 = max(int(cv) - reach, 0), min(int(cv) + reach + 1, rows)
+    c0, c1 = max(int(cu) - reach, 0), min(int(cu) + reach + 1, cols)
+    f = frame[r0:r1, c0:c1].astype(np.float64)
+    bg = background[r0:r1, c0:c1].astype(np.float64)
+    sg = sigma[r0:r1, c0:c1].astype(np.float64)
+    d = f - bg
+    fg = (np.abs(d) > settings.k_grow * sg).astype(np.uint8)
+    # the detection's own connected pixels (another object's, apart from it, are not
+    # the object's even where they lie within its kernel), with the pixels beside them:
+    # the object's faint edge
+    n_lab, lab = cv2.connectedComponents(fg, connectivity=8)
+    if n_lab > 2:
+        ly, lx = np.nonzero(lab)
+        near = np.hypot(lx + c0 - cu, ly + r0 - cv) <= max(2.0 * a, 3.0)
+        counts = np.bincount(lab[ly[near], lx[near]], minlength=n_lab)
+        counts[0] = 0
+        fg = (lab == int(np.argmax(counts))).astype(np.uint8) if counts.any() else fg
+    ys, xs = np.nonzero(cv2.dilate(fg, _KERNEL3))
+    if ys.size == 0:
+        return cu, cv, 0.0, np.nan, np.nan, np.nan, np.nan
+    level = float(det["level"]) if np.isfinite(det["level"]) and det["level"] > 0 else 1.0
+    w = pixel_weights(d[ys, xs], bg[ys, xs], sg[ys, xs], level, float(det["obj_level"]))
+    x = xs + c0 + 0.0
+    y = ys + r0 + 0.0
+    muu, mvv, muv = float(det["muu"]), float(det["mvv"]), float(det["muv"])
+    theta = 0.5 * np.arctan2(2.0 * muv, muu - mvv)
+    inside = np.zeros(x.size, bool)
+    for _ in range(_ITERATIONS):
+        c, s = np.cos(theta), np.sin(theta)
+        du, dv = x - cu, y - cv
+        along = du * c + dv * s
+        across = -du * s + dv * c
+        m2 = (along / a) ** 2 + (across / b) ** 2
+        inside = m2 <= k * k
+        wi = w * inside
+        sw = wi.sum()
+        if sw <= 0:
+            break
+        nu, nv = float(np.sum(wi * x) / sw), float(np.sum(wi * y) / sw)
+        eu, ev = x - nu, y - nv
+        iuu, ivv = np.sum(wi * eu * eu) / sw, np.sum(wi * ev * ev) / sw
+        iuv = np.sum(wi * eu * ev) / sw
+        if shape.major > 1.5 * shape.minor:
+            theta = 0.5 * np.arctan2(2.0 * iuv, iuu - ivv)
+        step = np.hypot(nu - cu, nv - cv)
+        cu, cv = nu, nv
+        if step < _CONVERGED_PX:
+            break
+    wi = w * inside
+    sw = float(wi.sum())
+    if sw <= 0:
+        return float(det["u"]), float(det["v"]), 0.0, np.nan, np.nan, np.nan, np.nan
+    eu, ev = x - cu, y - cv
+    muu = float(np.sum(wi * eu * eu) / sw)
+    mvv = float(np.sum(wi * ev * ev) / sw)
+    muv = float(np.sum(wi * eu * ev) / sw)
+    c, s = np.cos(theta), np.sin(theta)
+    m2 = ((eu * c + ev * s) / a) ** 2 + ((-eu * s + ev * c) / b) ** 2
+    near = m2 <= 4.0 * k * k
+    out = float(np.sum(w * (near & ~inside)))
+    return cu, cv, sw, muu, mvv, muv, out / (out + sw)
+
+
+def residual_outliers(residual, settings):
+    """Frames whose residual share lies beyond ``k_flag`` robust scatters of the chain's
+    (at least ``residual_floor``) above its median."""
+    r = np.asarray(residual, float)
+    med = float(np.nanmedian(r)) if np.isfinite(r).any() else 0.0
+    scale = robust_scale(r, floor=settings.residual_floor)
+    with np.errstate(invalid="ignore"):
+        return r > med + settings.k_flag * scale
