@@ -52,6 +52,10 @@ DETECTION_DTYPE = np.dtype([("u", "f8"), ("v", "f8"), ("weight", "f8"), ("area",
 
 _KERNEL3 = np.ones((3, 3), np.uint8)
 
+#: An object whose pixels of the other polarity (beyond ``k_grow``) hold at most this
+#: share of its summed contrast has one grey level (a highlight holds more).
+ONE_LEVEL_SHARE = 0.05
+
 
 def _percentile_by_label(values, labels, n, q):
     """The ``q`` quantile (0..1, lower) of ``values`` within each label ``0..n-1``."""
@@ -155,8 +159,10 @@ class Detector:
         bgv = self.bg[ys, xs].astype(np.float64)
         sign = np.where(np.bincount(li, d, m) >= 0, 1.0, -1.0)
         # (an object of two polarities, a highlight on a dark ball, has no one level)
-        other = np.bincount(li, (sign[li] * d < -self.grow_level[ys, xs]), m)
-        one_level = other <= 0.02 * np.bincount(li, minlength=m)
+        # (compression's ringing round a bright straw is a few grey levels of the other
+        # polarity: a share of the contrast, not of the pixels)
+        other = np.bincount(li, np.where(sign[li] * d < -self.grow_level[ys, xs], a, 0.0), m)
+        one_level = other <= ONE_LEVEL_SHARE * np.bincount(li, a, m)
         obj = sign * _percentile_by_label(sign[li] * fv, li, m, 0.9)
         obj = np.where(one_level, obj, np.nan)
         w = pixel_weights(d, bgv, self.sigma[ys, xs], level[li], obj[li])
