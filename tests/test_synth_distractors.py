@@ -23,58 +23,14 @@ import numpy as np
 import pytest
 
 from conftest import assert_k_within
+# BASE: the run every end-to-end case renders (the scale of tests/test_cli_fit.py), 372
+# frames a view; CASES: each case's options and the distractor columns of truth.json it
+# adds. The scoreboard (vidtrack bench track --real) scores the same scenes.
+from vidtrack.bench.scenes import BASE, CASES
 from vidtrack.footage import open_source
 from vidtrack.synth import SynthSpec, render_run
 
 REPO = __import__("pathlib").Path(__file__).resolve().parents[1]
-
-#: The run every end-to-end case renders (the scale of tests/test_cli_fit.py), 372
-#: frames a view, then the case's options.
-BASE = ["--size", "320x150", "--top-size", "320x96", "--straw-length-m", "0.25",
-        "--straw-diameter-m", "0.025", "--quality", "60", "--noise", "1.0",
-        "--flight-s", "0.3"]
-
-#: case -> (options, the distractor columns of truth.json it adds)
-CASES = {
-    "shadow": (["--shadow", "4,0.4,1.5"], ("shadow",)),
-    "rider_riding": (["--rider", "riding"], ("rider",)),
-    "rider_crossing": (["--rider", "crossing"], ("rider",)),
-    "dark": (["--straw-polarity", "dark"], ()),
-    "dark_highlight": (["--straw-polarity", "dark", "--highlight", "0.95"], ()),
-    "dark_highlight_riding": (["--straw-polarity", "dark", "--highlight", "0.95",
-                               "--rider", "riding"], ("rider",)),
-    "person": (["--person-at-side"], ("person",)),
-    "post": (["--post", "0.6,10"], ()),
-    "arm": (["--post", "0.6,10,-1.5"], ()),
-    # passing the straw the way it flies: 16 px, 2.5 px a frame
-    "arm_passing": (["--post", "0.5,16,2.5"], ()),
-    # moving with it, 1 px a frame: 25-37 % of it hidden for 60 frames
-    "arm_along": (["--post", "0.6,10,1.0"], ()),
-    # an object 4 px across (3 cm) going behind the post and out
-    "small_post": (["--straw-length-m", "0.03", "--straw-diameter-m", "0.03",
-                    "--post", "0.6,10"], ()),
-    # a compact object (7 by 6 cm: 10 by 8 px) with an arm moving along with it
-    "compact_arm_along": (["--straw-length-m", "0.07", "--straw-diameter-m", "0.06",
-                           "--post", "0.6,10,1.0"], ()),
-    # the same object with its shadow 4 px off, half under it (a ball before a lit
-    # wall: before, the object and its shadow were taken as one object of both
-    # polarities, the front view's frames 2.5 px off, exit 0)
-    "compact_shadow": (["--straw-length-m", "0.07", "--straw-diameter-m", "0.06",
-                        "--shadow", "4,0.4,1.5"], ("shadow",)),
-    # dark with a highlight, a steel ball (before its measurement of one grey level with
-    # a spot, measure_spotted: 122 of 335 front frames 0.5 to 1.95 px off, k1 -4 %,
-    # k4 +4 %, exit 0), and one 17 by 14 px (before the highlight was held to be part
-    # of it: the highlight taken, every frame flagged MERGED, exit 2)
-    "compact_dark_highlight": (["--straw-length-m", "0.07", "--straw-diameter-m", "0.06",
-                                "--straw-polarity", "dark", "--highlight", "0.95"], ()),
-    "ball_dark_highlight": (["--straw-length-m", "0.12", "--straw-diameter-m", "0.10",
-                             "--straw-polarity", "dark", "--highlight", "0.95"], ()),
-    # and one 6 by 5 px, too small for an interior beside its highlight (before its
-    # level was read off its plateau: 249 of 372 front frames kept, up to 2.13 px off,
-    # k1 -2.3 %, k4 -2.6 %, exit 0)
-    "small_dark_highlight": (["--straw-length-m", "0.04", "--straw-diameter-m", "0.035",
-                              "--straw-polarity", "dark", "--highlight", "0.95"], ()),
-}
 
 #: The least share of a view's frames that stays unflagged (0.5 unless given): the dark
 #: straw with its highlight and a rider along it keeps 327 and 181 of 372 (the top view's
