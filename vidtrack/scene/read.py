@@ -21,7 +21,7 @@ from calibration.errors import InputError
 from calibration.scale import M_PER_PX_RANGE
 from calibration.views import parse_axes
 from vidtrack.errors import SceneError
-from vidtrack.scene.cameras import parse_camera_view, parse_world
+from vidtrack.scene.cameras import check_parallax, parse_camera_view, parse_world
 from vidtrack.scene.corrections import parse_exclude, parse_manual_points, parse_target
 from vidtrack.scene._check import (
     _canonical_hash,
@@ -314,6 +314,7 @@ def parse_scene(data, *, folder, label=SCENE_FILE, path=None):
         views = {name: parse_camera_view(ck, name, view, folder, fps_range=FPS_RANGE,
                                          frames_and_sync=_frames_and_sync)
                  for name, view in views_table.items()}
+        check_parallax(ck, views)
     for name in (views_table if world is None else ()):
         if name not in VIEW_AXES:
             near = difflib.get_close_matches(name, list(VIEW_AXES), n=1)
