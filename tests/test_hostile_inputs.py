@@ -940,8 +940,12 @@ CASES += [
          args=("report", "exp"), stderr=r"matches exp/runs/c, a link .*loop"),
     Case("report-a-run-folder-through-a-good-link",
          setup=both(experiment(name="n_rmp"),
-                    link("b", "exp/runs/c")),
+                    run42_copy("elsewhere/c", scene=_named("run42-c")),
+                    link("../../elsewhere/c", "exp/runs/c")),
          args=("report", "exp"), stderr=r"exp/runs/a/scene\.toml: \[factors\] has no 'n_rmp'"),
+    Case("report-the-same-run-twice-through-a-link",
+         setup=both(experiment(), link("b", "exp/runs/c")), args=("report", "exp"),
+         stderr=r"exp/runs/b and exp/runs/c both have the run name 'run42'"),
     # ---- a full disk: every command, exit 2, outputs whole or absent (item 5) ---------
     Case("fit-full-disk", setup=both(run42_copy(), full_disk("run/vidtrack")),
          args=("fit", "run", "-q"),

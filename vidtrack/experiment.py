@@ -32,7 +32,8 @@ def check_runs(experiment, scenes):
     Raises
     ------
     SceneError
-        A design the report cannot analyse, a response that no fit gives, a run whose
+        A design the report cannot analyse, a response that no fit gives, two runs with
+        one name (``[run] name``, by default the folder's name), a run whose
         scene.toml lacks a factor of the design or gives it as something else than a
         number (the message names the file, the factor, what the scene has).
     """
@@ -48,6 +49,14 @@ def check_runs(experiment, scenes):
             hint = f" (did you mean {near[0]!r}?)" if near else ""
             raise SceneError(f"{experiment.path}: responses names {k!r}{hint}; expected "
                              f"some of {', '.join(RESPONSES)}")
+    named = {}
+    for scene in scenes:
+        first = named.setdefault(scene.run_name, scene)
+        if first is not scene:
+            raise SceneError(f"{first.folder} and {scene.folder} both have the run name "
+                             f"{scene.run_name!r} ([run] name in scene.toml); expected each "
+                             "run of an experiment named once (the coefficient table has a "
+                             "row per run, told apart by its name)")
     for scene in scenes:
         for letter, factor in experiment.factors.items():
             if factor.name not in scene.factors:

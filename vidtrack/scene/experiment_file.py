@@ -7,6 +7,8 @@ The analysis over the runs is :mod:`vidtrack.experiment`.
 """
 
 import dataclasses
+import errno
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -77,9 +79,19 @@ class Experiment:
         Raises
         ------
         SceneError
-            The glob matches no folder, or a matched folder has no scene.toml.
+            The glob matches no folder, a link that leads nowhere (dangling or a loop),
+            or a matched folder has no scene.toml.
         """
-        found = sorted((p for p in self.folder.glob(self.runs) if p.is_dir()),
+        matched = list(self.folder.glob(self.runs))
+        for p in matched:
+            if p.is_symlink() and not p.exists():
+                target = os.readlink(p)
+                why = ("which leads back to itself (a loop)" if _loops(p) else
+                       "which does not exist")
+                raise SceneError(f"{self.path}: runs = {self.runs!r} matches {p}, a link to "
+                                 f"{target}, {why}; expected every run folder there to be "
+                                 "a folder (or a link to one)")
+        found = sorted((p for p in matched if p.is_dir()),
                        key=lambda p: _natural_key(str(p.relative_to(self.folder))))
         if not found:
             raise SceneError(f"{self.path}: runs = {self.runs!r} matches no run folder "
@@ -95,6 +107,16 @@ class Experiment:
         return {"schema": SCHEMA, "design": self.design, "responses": list(self.responses),
                 "runs": self.runs,
                 "factors": {k: f.to_dict() for k, f in self.factors.items()}}
+
+
+def _loops(path):
+    try:
+        Path(path).resolve(strict=True)
+    except RuntimeError:
+        return True
+    except OSError as exc:
+        return exc.errno == errno.ELOOP
+    return False
 
 
 def load_experiment(exp_dir):
