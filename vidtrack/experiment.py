@@ -137,21 +137,27 @@ def analyse(experiment, table, *, alpha=0.05):
 
 
 def write_outputs(out_dir, experiment, table, fits, *, notes=()):
-    """coefficients.csv, anova.json and report.html in ``out_dir`` (each atomically)."""
+    """coefficients.csv, anova.json and report.html in ``out_dir`` (each atomically; if
+    one cannot be written, e.g. on a full disk, none of them is left)."""
     import json
 
     from vidtrack.report.anova_page import write_anova_report
 
     out_dir = Path(out_dir)
-    with atomic_path(out_dir / "coefficients.csv") as tmp:
-        table.to_csv(tmp, index=False)
-    write_text(out_dir / "anova.json",
-               json.dumps([f.to_dict() for f in fits], indent=2, allow_nan=False) + "\n")
-    write_anova_report(out_dir / "report.html", fits,
-                       title=f"Experiment {experiment_name(experiment)}",
-                       source="coefficients.csv")
-    if notes:
-        write_text(out_dir / "notes.txt", "\n".join(notes) + "\n")
+    try:
+        with atomic_path(out_dir / "coefficients.csv") as tmp:
+            table.to_csv(tmp, index=False)
+        write_text(out_dir / "anova.json",
+                   json.dumps([f.to_dict() for f in fits], indent=2, allow_nan=False) + "\n")
+        write_anova_report(out_dir / "report.html", fits,
+                           title=f"Experiment {experiment_name(experiment)}",
+                           source="coefficients.csv")
+        if notes:
+            write_text(out_dir / "notes.txt", "\n".join(notes) + "\n")
+    except BaseException:       # a report is its files together: none of a half one
+        for name in OUTPUTS:
+            (out_dir / name).unlink(missing_ok=True)
+        raise
 
 
 def experiment_name(experiment):

@@ -19,6 +19,7 @@ A run with ``throws/`` is fitted per throw (outputs in ``<run>/vidtrack/<throw>/
 the run's ``fit.json`` holds the mean over the throws, as Chen et al. 2018 did.
 """
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -114,6 +115,20 @@ def _remove_outputs(out_dir, stages, stage_names, files):
     stages.drop(*stage_names)
     for name in files:
         (Path(out_dir) / name).unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def _whole_or_none(out_dir, files):
+    """A stage's files and its stages.json entry written together or not at all: when
+    writing them fails (a full disk, Ctrl-C), the files written so far are removed, so
+    no output stands without the record that vouches for it."""
+    try:
+        yield
+    except BaseException:
+        for name in files:
+            with contextlib.suppress(OSError):
+                (Path(out_dir) / name).unlink()
+        raise
 
 
 def _track_views(scene, folder, options, timings, workers, *, label_of=lambda view: None):
@@ -226,9 +241,10 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
         if helper is not None:
             helper.send_tracks({n: tr.data for n, tr in tracks.items()})
         calibration = {n: v.to_dict() for n, v in scene.views.items()}
-    write_tracks(h5, tracks, world, scene_hash=scene.hash, calibration=calibration)
-    _write_tables(scene, out_dir, tracks, world)
-    stages.record("tracks", key, TRACKS_FILES)
+    with _whole_or_none(out_dir, TRACKS_FILES):
+        write_tracks(h5, tracks, world, scene_hash=scene.hash, calibration=calibration)
+        _write_tables(scene, out_dir, tracks, world)
+        stages.record("tracks", key, TRACKS_FILES)
     return key, tracks, world, False, helper
 
 
@@ -507,10 +523,11 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
     record["timings_s"] = {k: round(float(v), 6) for k, v in timings.items()}
     record["fitted_at"] = utc_now()
     # fit.json first: a report never stands without the fit it shows
-    write_text(out_dir / "fit.json", dumps(record))
-    for name, text in (pages or {}).items():
-        write_text(out_dir / name, text)
-    stages.record("fit", fit_key, needed, at=record["fitted_at"])
+    with _whole_or_none(out_dir, FIT_FILES):
+        write_text(out_dir / "fit.json", dumps(record))
+        for name, text in (pages or {}).items():
+            write_text(out_dir / name, text)
+        stages.record("fit", fit_key, needed, at=record["fitted_at"])
     return record
 
 

@@ -28,6 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
+from vidtrack.errors import DiskFullError
+
 from vidtrack.synth._renderer import _ViewRenderer, _ViewTrack
 from vidtrack.synth._views import _frame_times, _frame_view, _static_image
 from vidtrack.synth._writers import _source_name, _write_avi, _write_cine, _write_png
@@ -423,10 +425,12 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
         write_text(out_dir / MARKER_FILE, _marker_text(names))
         names.append(MARKER_FILE)
         stage.rmdir()
-    except BaseException:
+    except BaseException as exc:
         shutil.rmtree(stage, ignore_errors=True)
         if created:
             shutil.rmtree(out_dir, ignore_errors=True)
+        if isinstance(exc, DiskFullError):      # named as the file it would have been
+            raise DiskFullError(str(exc).replace(str(stage), str(out_dir))) from exc
         raise
     finally:
         bar.close()
