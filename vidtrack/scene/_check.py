@@ -21,6 +21,12 @@ from pathlib import Path
 from vidtrack.errors import SceneError
 
 
+#: Largest image coordinate (px) a scene may give: an origin, a ruler's end, a target
+#: or a manual point. Beyond it squares and products overflow float64's reach in the
+#: geometry; no camera has a frame a million pixels wide.
+MAX_ABS_PX = 1e6
+
+
 def _show(value):
     if isinstance(value, str):
         return repr(value)
@@ -121,6 +127,9 @@ class _Checker:
             self.fail(path, f"must be two numbers {what}, got {_show(value)}")
         if not all(math.isfinite(v) for v in value):
             self.fail(path, f"must be two finite numbers {what}, got {_show(value)}")
+        if any(abs(v) > MAX_ABS_PX for v in value):
+            self.fail(path, f"must be within +-{MAX_ABS_PX:g} px (an image position; "
+                      f"larger ones overflow the geometry), got {_show(value)}")
         return (float(value[0]), float(value[1]))
 
 
