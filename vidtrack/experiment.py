@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 from vidtrack._atomic import atomic_path, write_text
+from vidtrack._text import csv_cell
 from vidtrack.errors import SceneError
 
 #: What ``vidtrack report`` writes into ``<experiment>/vidtrack/``.
@@ -146,7 +147,8 @@ def write_outputs(out_dir, experiment, table, fits, *, notes=()):
     out_dir = Path(out_dir)
     try:
         with atomic_path(out_dir / "coefficients.csv") as tmp:
-            table.to_csv(tmp, index=False)
+            # a run's name is the user's text: never a formula to a spreadsheet
+            table.assign(run=table["run"].map(csv_cell)).to_csv(tmp, index=False)
         write_text(out_dir / "anova.json",
                    json.dumps([f.to_dict() for f in fits], indent=2, allow_nan=False) + "\n")
         write_anova_report(out_dir / "report.html", fits,
