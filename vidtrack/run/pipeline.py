@@ -29,11 +29,12 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from vidtrack import __version__
 from vidtrack._atomic import write_text
 from vidtrack.run._workers import (ViewProcess, ViewThread, preload_later_stages, source_of,
                                     track_view)
 from vidtrack.errors import DisagreementError, FitError, SceneError, VidtrackError
+from vidtrack.run.cache import (FIT_ALGORITHM, WORLD_ALGORITHM, stage_key,  # noqa: I001
+                                tracker_version)
 from vidtrack.run.cache import STAGES_FILE, Stages, file_digest  # noqa: F401 (STAGES_FILE,
 from vidtrack.run.preflight import OUT_DIR, about, prepare_run  # noqa: F401  OUT_DIR: as before)
 
@@ -74,10 +75,6 @@ class FitOptions:
     def key(self):
         return {"model": self.model, "bootstrap": self.bootstrap,
                 "seed": self.seed if self.bootstrap else None}
-
-
-def _digest(obj):
-    return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()
 
 
 def _file_fingerprint(path):
@@ -207,10 +204,13 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
     # the scene's hash holds exclude_frames and the manual points file's name; the key
     # holds that file's content too (this folder's: a throw has its own), so an edited
     # CSV tracks again
-    key = _digest({"version": __version__, "scene": scene.hash, "tracker": TRACKER_SETTINGS,
-                   "sources": {n: _file_fingerprint(source_of(v, scene, folder))
-                               for n, v in scene.views.items()},
-                   "corrections": corrections_key(scene, folder)})
+    key = stage_key("tracks", algorithm={"tracker": tracker_version(),
+                                         "world": WORLD_ALGORITHM},
+                    settings={"tracker": TRACKER_SETTINGS},
+                    inputs={"scene": scene.hash,
+                            "sources": {n: _file_fingerprint(source_of(v, scene, folder))
+                                        for n, v in scene.views.items()},
+                            "corrections": corrections_key(scene, folder)})
     h5 = out_dir / "tracks.h5"
     if not options.force:
         reused = _reused_tracks(scene, out_dir, key, stages, timings, label_of(None))
@@ -473,8 +473,9 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
 
     cp = _check_cp(scene, options)
     # tracks.h5 itself too: a track edited by hand (flags set, points removed) is refitted
-    fit_key = _digest({"tracks": tracks_key, "fit": options.key(), "cp": cp,
-                       "tracks_file": file_digest(out_dir / "tracks.h5")})
+    fit_key = stage_key("fit", algorithm=FIT_ALGORITHM, settings={**options.key(), "cp": cp},
+                        inputs={"tracks": tracks_key,
+                                "tracks_file": file_digest(out_dir / "tracks.h5")})
     needed = ("fit.json",) + (REPORT_FILES if options.report else ())
     if not options.force:
         ok, why = stages.check("fit", fit_key, needed)
@@ -495,6 +496,12 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
             _note(f"{label}: {why}; fitting again")
     _remove_outputs(out_dir, stages, ("fit",), FIT_FILES)
     notes = list(plan.notes.get(folder, [])) + _accepted(findings, label)
+    if reused:      # said on stderr and kept in fit.json: the tracks are not new
+        said = (f"tracks reused from {out_dir / 'tracks.h5'} (computed at "
+                f"{stages.at('tracks') or 'an earlier run'}, same scene, footage, tracker and "
+                "settings; --force tracks again)")
+        _note(f"{label}: {said}")
+        notes.append(said)
     t0 = time.perf_counter()
     try:
         fit = fit_throw(world.data, cp, g=scene.physics.gravity_m_s2, v1=scene.v1_m_s,
