@@ -822,10 +822,10 @@ def _named(run_name):
     return edit
 
 
-def fitted_experiment(*run_names):
+def fitted_experiment(*run_names, n_rpm=(450, 550, 650, 750, 850, 950, 1050, 1150)):
     """A setup: ``exp/`` whose runs ``runs/a``, ``runs/b``... are fitted copies of run42
     named ``run_names`` (see :func:`fitted_run`), with experiment.toml (factor A). Each
-    copy's fit.json is given its own n_rpm (450, 550, 650, ...) and k's scaled by
+    copy's fit.json is given its n_rpm (``n_rpm[i]``) and k's scaled by
     (1 + i/10 + i^2/50) as if its footage had shown them, and stages.json the new
     file's digest, so that the report reuses every fit and has something to analyse."""
     def setup(w):
@@ -836,7 +836,7 @@ def fitted_experiment(*run_names):
             fitted_run(f"exp/runs/{letter}", rn)(w)
             out = w / "exp" / "runs" / letter / "vidtrack"
             record = json.loads((out / "fit.json").read_text(encoding="utf-8"))
-            record["factors"]["n_rpm"] = 450 + 100 * i
+            record["factors"]["n_rpm"] = n_rpm[i]
             for c in record["coefficients"].values():
                 if c["determined"]:
                     c["value"] *= 1 + i / 10 + i * i / 50
@@ -1036,6 +1036,12 @@ CASES += [
          check=all_of(csv_cells_not_formulas("exp/vidtrack/coefficients.csv", "run"),
                       no_control_characters,
                       stderr_lacks(r"Warning:|warnings\.warn|\.py:\d+"))),
+    Case("report-aliased-term-is-a-warning-line-not-a-python-warning",
+         setup=fitted_experiment(*REPORT_NAMES, n_rpm=(450, 650, 450, 650)),
+         args=("report", "exp"), code=0, mutable=("exp/runs/*/vidtrack/*",),
+         stderr=r"(?m)^vidtrack report: warning: response 'k1': term\(s\) A\^2 cannot be "
+                r"estimated from this design .*; left out of the model$",
+         check=stderr_lacks(r"AliasedTermWarning|warnings\.warn|\.py:\d+")),
     Case("report-run-folder-name-with-a-newline",
          setup=both(experiment(),
                     lambda w: (w / "exp/runs/b").rename(w / "exp/runs/b\nc"),
@@ -1057,7 +1063,8 @@ CASES += [
     # ---- the stage cache says when it reuses (item 11) -------------------------------
     Case("fit-says-when-it-reuses-a-stage", setup=fitted_run("run"),
          args=("fit", "run", "--model", "linear"), code=0, mutable=("run/vidtrack/*",),
-         stderr=r"note: run 'run42' \(run\): tracks reused from .* \(computed at \S+\)"),
+         stderr=r"note: run 'run42' \(run\): tracks reused from run/vidtrack/tracks\.h5 "
+                r"\(computed at \S+, same scene, footage, tracker and settings"),
 ]
 
 

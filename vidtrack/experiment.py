@@ -6,6 +6,8 @@ has one row per run: ``run``, the coded factors (``A``, ``B``, ``C``), the facto
 natural units (their names) and the responses, with standard errors beside them.
 """
 
+import logging
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +16,8 @@ import pandas as pd
 from vidtrack._atomic import atomic_path, write_text
 from vidtrack._text import csv_cell
 from vidtrack.errors import SceneError
+
+log = logging.getLogger(__name__)
 
 #: What ``vidtrack report`` writes into ``<experiment>/vidtrack/``.
 OUTPUTS = ("coefficients.csv", "anova.json", "report.html", "notes.txt")
@@ -122,7 +126,8 @@ def analyse(experiment, table, *, alpha=0.05):
     """Response-surface fits of every response of the experiment (``fits.rsm``).
 
     Runs where a response was not determined are left out of that response's fit (and
-    named in a note by the caller).
+    named in a note by the caller). A term the design cannot estimate is left out and
+    said through the ``vidtrack`` logger.
     """
     from fits.rsm import fit_rsm
 
@@ -131,9 +136,15 @@ def analyse(experiment, table, *, alpha=0.05):
                          "'vidtrack anova --design orthogonal' on the coefficient table")
     factors = rsm_factors(experiment)
     fits = []
-    for k in experiment.responses:
-        part = table[np.isfinite(table[k])]
-        fits.append(fit_rsm(part, k, factors, alpha=alpha))
+    # what the fit warns about (a term the design cannot estimate) is said through the
+    # vidtrack logger, as every message of the library, not as a Python warning
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for k in experiment.responses:
+            part = table[np.isfinite(table[k])]
+            fits.append(fit_rsm(part, k, factors, alpha=alpha))
+    for w in caught:
+        log.warning("%s", w.message)
     return fits
 
 
