@@ -1068,6 +1068,97 @@ CASES += [
 ]
 
 
+def physics_value(key, value):
+    """A scene edit: ``key = value`` in run42's [physics] table."""
+    def edit(text):
+        return text.replace("[physics]\n", f"[physics]\n{key} = {value}\n", 1) if \
+            f"{key} =" not in text else re.sub(rf"(?m)^{key} = .*$", f"{key} = {value}", text)
+    return edit
+
+
+def straw_table(text):
+    return lambda scene: re.sub(r"(?ms)^\[straw\]\n.*?(?=^\[)", "[straw]\n" + text + "\n",
+                                scene, count=1)
+
+
+def renamed_camera_view(name):
+    """A scene edit of a ``synth --cameras perspective`` run: cam2 renamed ``name``."""
+    return lambda text: text.replace("[views.cam2]", f"[views.{name}]", 1)
+
+
+CASES += [
+    # ---- numbers at the float limits, refused when the scene is read -----------------
+    Case("fit-gravity-1e308", setup=run42_copy(scene=physics_value("gravity_m_s2", "1e308")),
+         args=("fit", "run"),
+         stderr=r"run/scene\.toml: physics\.gravity_m_s2 must be between 0\.01 and 1000 "
+                r"m/s\^2, got 1e\+308"),
+    Case("fit-air-density-1e308",
+         setup=run42_copy(scene=physics_value("air_density_kg_m3", "1e308")),
+         args=("fit", "run"), stderr=r"physics\.air_density_kg_m3 must be between 0 and 100"),
+    Case("fit-straw-mass-5e-324",
+         setup=run42_copy(scene=straw_table("mass_kg = 5e-324\narea_m2 = 0.01\n"
+                                            "drag_coefficient = 1.0\n")),
+         args=("fit", "run"), stderr=r"straw\.mass_kg must be between 1e-09 and 1000 kg"),
+    Case("fit-straw-cp-1e300", setup=run42_copy(scene=straw_table("cp_s_per_m = 1e300\n")),
+         args=("fit", "run"),
+         stderr=r"straw\.cp_s_per_m gives Cp = 1e\+300 s/m; expected Cp <= 10 s/m"),
+    Case("fit-machine-speed-1e308",
+         setup=run42_copy(scene=lambda t: t.replace("[machine]\nspeed_kmh = 7.2",
+                                                    "[machine]\nspeed_kmh = 1e308", 1)),
+         args=("fit", "run"), stderr=r"machine\.speed_kmh must be between 0 and 100 km/h"),
+    Case("fit-factor-1e308",
+         setup=run42_copy(scene=lambda t: t.replace("n_rpm = 550", "n_rpm = 1e308", 1)),
+         args=("fit", "run"),
+         stderr=r"run/scene\.toml: factors\.n_rpm must be within \+-1e\+12 .*got 1e\+308"),
+    Case("report-factor-centre-1e308",
+         setup=both(experiment(), lambda w: (w / "exp/experiment.toml").write_text(
+             (w / "exp/experiment.toml").read_text().replace("centre = 550",
+                                                             "centre = 1e308"))),
+         args=("report", "exp"),
+         stderr=r"exp/experiment\.toml: factors\.A\.centre must be between -1e\+12 and 1e\+12"),
+    Case("report-factor-step-5e-324",
+         setup=both(experiment(), lambda w: (w / "exp/experiment.toml").write_text(
+             (w / "exp/experiment.toml").read_text().replace("step = 100", "step = 5e-324"))),
+         args=("report", "exp"), stderr=r"factors\.A\.step must be between 1e-12 and 1e\+12"),
+    # ---- names that end up in file names and table columns ---------------------------
+    Case("fit-camera-view-named-a-path",
+         setup=both(synthetic_run("run", "--cameras", "perspective"),
+                    scene_edit("run", renamed_camera_view('"../../escaped"'))),
+         args=("fit", "run"),
+         stderr=r"run/scene\.toml: views\.'\.\./\.\./escaped' is not a usable view name: it "
+                r"names output files .*expected a letter or digit"),
+    Case("fit-camera-view-named-a-formula",
+         setup=both(synthetic_run("run", "--cameras", "perspective"),
+                    scene_edit("run", renamed_camera_view('"=1+1"'))),
+         args=("fit", "run"), stderr=r"views\.'=1\+1' is not a usable view name"),
+    Case("fit-camera-view-named-with-an-escape",
+         setup=both(synthetic_run("run", "--cameras", "perspective"),
+                    scene_edit("run", renamed_camera_view('"cam\\u001b[2J"'))),
+         args=("fit", "run"), stderr=r"views\.'cam\\x1b\[2J' is not a usable view name"),
+    Case("report-run-folder-name-with-an-escape",
+         setup=both(experiment(),
+                    lambda w: (w / "exp/runs/b").rename(w / "exp/runs/b\x1b[2J"),
+                    scene_edit("exp/runs/b\x1b[2J",
+                               lambda t: t.replace("fps = 1200", "fps = 0", 1))),
+         args=("report", "exp"),
+         stderr=r"exp/runs/b\\x1b\[2J/scene\.toml: views\.front\.fps"),
+    # ---- links ----------------------------------------------------------------------
+    Case("fit-source-is-a-dangling-link",
+         setup=both(run42_copy(), lambda w: (w / "run/top.avi").unlink(),
+                    link("nowhere.avi", "run/top.avi")),
+         args=("fit", "run"), stderr=r"views\.top\.source: run/top\.avi does not exist"),
+    Case("fit-manual-points-a-dangling-link",
+         setup=both(run42_copy(scene=with_manual()), link("gone.csv", "run/m.csv")),
+         args=("fit", "run"), stderr=r"views\.front\.manual_points names 'm\.csv', but"),
+    Case("synth-out-is-a-dangling-link", setup=link("gone", "run"),
+         args=("synth", "run", *TINY),
+         stderr=r"run: is a link to gone, which does not exist; expected a folder"),
+    Case("frames-out-is-a-dangling-link", setup=link("gone", "out"),
+         args=("frames", "{repo}/datasets/run42/front.avi", "out", "--fps", "1200"),
+         stderr=r"out: is a link to gone, which does not exist; expected a folder"),
+]
+
+
 # ------------------------------------------------------------------ the runner
 
 def _tree(folder):

@@ -221,7 +221,7 @@ def check_output(path, *, inputs=(), label=None, folder=False):
     ------
     VidtrackError
         ``path`` is one of ``inputs``; a file output that is a folder or a folder output
-        that is a file; a file where a parent folder should be; a folder that cannot be
+        that is a file or a link that leads nowhere; a file where a parent folder should be; a folder that cannot be
         written to. One line: the output, what is wrong, what was expected.
     """
     from vidtrack.errors import VidtrackError
@@ -232,6 +232,9 @@ def check_output(path, *, inputs=(), label=None, folder=False):
         if given is not None and _same_file(path, Path(given)):
             raise VidtrackError(f"{label}: is the input {given}; inputs are never "
                                 "overwritten, expected a different output path")
+    if folder and path.is_symlink() and not path.exists():
+        raise VidtrackError(f"{label}: is a link to {os.readlink(path)}, which does not "
+                            "exist; expected a folder (new or existing) to write into")
     if folder and path.exists() and not path.is_dir():
         raise VidtrackError(f"{label}: exists and is not a folder; expected a folder "
                             "(new or existing) to write into")

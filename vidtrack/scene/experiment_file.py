@@ -15,7 +15,7 @@ from pathlib import Path
 from vidtrack.errors import SceneError
 from vidtrack.scene._check import _canonical_hash, _Checker, _read_toml, _show
 from vidtrack.scene.folders import _natural_key
-from vidtrack.scene.model import SCENE_FILE, SCHEMA
+from vidtrack.scene.model import MAX_ABS_FACTOR, SCENE_FILE, SCHEMA
 
 EXPERIMENT_FILE = "experiment.toml"
 
@@ -186,8 +186,10 @@ def load_experiment(exp_dir):
         need = design == "ccd"
         factors[letter] = Factor(
             letter=letter, name=ck.string(f, "name", f"{fp}.name", required=True),
-            centre=ck.number(f, "centre", f"{fp}.centre", required=need),
-            step=ck.number(f, "step", f"{fp}.step", required=need, gt=0))
+            centre=ck.number(f, "centre", f"{fp}.centre", required=need,
+                             within=(-MAX_ABS_FACTOR, MAX_ABS_FACTOR, "(natural units)")),
+            step=ck.number(f, "step", f"{fp}.step", required=need, gt=0,
+                           within=(1 / MAX_ABS_FACTOR, MAX_ABS_FACTOR, "(natural units)")))
     if design == "ccd" and not factors:
         ck.fail("factors", "must name at least one factor for a ccd design")
     names = [f.name for f in factors.values()]
