@@ -722,24 +722,28 @@ CASES += [
 # at the float limits. A full disk is a real one: a small tmpfs mounted over the output
 # folder (skips, saying why, where this process cannot mount one).
 
-def interrupted_synth(name="run", *options):
-    """A setup: ``vidtrack synth`` into ``w/name`` killed (SIGKILL, as by a power cut or
-    the OOM killer) while it renders, so that its staging folder is left behind."""
+def killed(out, stage, *args):
+    """A setup: ``vidtrack ARGS`` killed (SIGKILL, as by a power cut or the OOM killer)
+    once a file is in its staging folder ``w/out/STAGE``, so the folder is left behind."""
     def setup(w):
-        out = w / name
         proc = subprocess.Popen(
-            [sys.executable, "-m", "vidtrack", "synth", str(out), "--size", "320x240",
-             "--flight-s", "0.4", "-q", *options], stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
+            [sys.executable, "-m", "vidtrack", *(str(a).format(w=w, repo=REPO) for a in args)],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline and proc.poll() is None:
-            if out.is_dir() and any(p.is_file() for p in out.glob(".synth-*.part/*")):
+            if (w / out).is_dir() and any(p.is_file() for p in (w / out).glob(stage + "/*")):
                 break
             time.sleep(0.005)
         proc.kill()
         proc.wait()
-        assert list(out.glob(".synth-*.part")), "the render was not caught half-way"
+        assert list((w / out).glob(stage)), "the command was not caught half-way"
     return setup
+
+
+def interrupted_synth(name="run", *options):
+    """A setup: ``vidtrack synth`` into ``w/name`` killed while it renders."""
+    return killed(name, ".synth-*.part", "synth", "{w}/" + name, "--size", "320x240",
+                  "--flight-s", "0.4", "-q", *options)
 
 
 def no_hidden_leftovers(folder):
@@ -917,6 +921,15 @@ CASES += [
          setup=both(synthetic_run("run"), interrupted_synth("run", "--force")),
          args=("synth", "run", "--force", *TINY), code=0, mutable=("run/*",),
          check=no_hidden_leftovers("run")),
+    Case("frames-rerun-after-a-killed-export",
+         setup=both(files({"out/notes.txt": "mine"}),
+                    killed("out", ".frames-*.part", "frames", "{repo}/datasets/run42/front.avi",
+                           "{w}/out", "--fps", "1200", "-q")),
+         args=("frames", "{repo}/datasets/run42/front.avi", "out", "--fps", "1200",
+               "--range", "0:2", "-q"), code=0, mutable=("out/.frames-*",),
+         check=all_of(no_hidden_leftovers("out"),
+                      listing("out", "frame_000000.png", "frame_000001.png", "frames.csv",
+                              "notes.txt"))),
     Case("synth-hidden-file-not-its-own",
          setup=files({"run/.synth-notes.txt": "mine"}), args=("synth", "run", *TINY),
          stderr=r"run: the folder is not empty \(holds \.synth-notes\.txt\)"),

@@ -3,6 +3,7 @@ numbered png, jpg or tiff files plus ``frames.csv`` (frame index, time, file).
 """
 
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -163,8 +164,11 @@ def export_frames(source, out, *, every=1, fmt="png", quiet=False):
 
     created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
-    # staged inside out (the same device even when out is a mount point)
-    stage = Path(tempfile.mkdtemp(prefix=".frames-", suffix=".part", dir=out))
+    # staged inside out (the same device even when out is a mount point); the staging
+    # folder of an export that was killed (its process gone) is removed first
+    for leftover in _leftovers(out):
+        shutil.rmtree(leftover, ignore_errors=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".frames-{os.getpid()}-", suffix=".part", dir=out))
     moved = []
     try:
         frames = iter(source) if every == 1 else (source[i] for i in picks)
@@ -218,3 +222,21 @@ def _write_image(data, path, final):
         if full is not None:
             raise full from exc
         raise
+
+
+_STAGE_NAME = re.compile(r"\.frames-(\d+)-[a-z0-9_]{8}\.part")
+
+
+def _leftovers(out):
+    """Staging folders in ``out`` of exports whose process is gone (killed)."""
+    found = []
+    for p in out.iterdir():
+        m = _STAGE_NAME.fullmatch(p.name)
+        if m and p.is_dir() and not p.is_symlink():
+            try:
+                os.kill(int(m.group(1)), 0)
+            except ProcessLookupError:
+                found.append(p)
+            except OSError:
+                pass
+    return found
