@@ -1019,7 +1019,8 @@ CASES += [
          stderr=r"run/scene\.toml: views\.front\.manual_points \(m\.csv, line 2\) u_px must be "
                 r"within \+-1e\+06 px \(an image position\), got '1e308'"),
     Case("fit-origin-1e308",
-         setup=run42_copy(scene=lambda t: t.replace("origin_px = [", "origin_px = [1e308, 0] #", 1)),
+         setup=run42_copy(scene=lambda t: t.replace("origin_px = [", "origin_px = [1e308, 0] #",
+                                                    1)),
          args=("fit", "run"),
          stderr=r"run/scene\.toml: views\.front\.origin_px must be within \+-1e\+06 px .*got "
                 r"\[1e\+308, 0\]"),

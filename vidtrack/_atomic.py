@@ -42,8 +42,8 @@ def disk_full(exc, path=None):
     Example
     -------
     >>> import errno
-    >>> str(disk_full(OSError(errno.ENOSPC, "No space left on device"), "out/a.csv"))
-    'no space left on device writing out/a.csv; expected room for the outputs (free some space there or choose another output folder)'
+    >>> str(disk_full(OSError(errno.ENOSPC, "No space left on device"), "a.csv"))[:50]
+    'no space left on device writing a.csv; expected ro'
     """
     from vidtrack.errors import DiskFullError
 
@@ -221,8 +221,9 @@ def check_output(path, *, inputs=(), label=None, folder=False):
     ------
     VidtrackError
         ``path`` is one of ``inputs``; a file output that is a folder or a folder output
-        that is a file or a link that leads nowhere; a file where a parent folder should be; a folder that cannot be
-        written to. One line: the output, what is wrong, what was expected.
+        that is a file or a link that leads nowhere; a file where a parent folder should
+        be; a folder that cannot be written to. One line: the output, what is wrong,
+        what was expected.
     """
     from vidtrack.errors import VidtrackError
 
