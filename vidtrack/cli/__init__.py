@@ -100,7 +100,7 @@ class CliFormatter(logging.Formatter):
         text = self.prefix + (f"{label}: " if label else "")
         if record.levelno <= logging.DEBUG:
             text += f"[{record.name}] "
-        text += printable(record.getMessage(), keep="\n")
+        text += printable(record.getMessage())     # one line, whatever names it holds
         if record.exc_info:
             text += "\n" + self.formatException(record.exc_info)
         return text
