@@ -64,11 +64,14 @@ OLD_OUTPUTS = ("coefficients.csv", "anova.json", "report.html", "notes.txt")
 
 
 def _experiment(root, top_fps_b=None):
-    """Two copies of run42 (b's top fps optionally wrong) and a one-factor experiment."""
+    """Two copies of run42 named run42-a and run42-b (each run of an experiment has its
+    own name; b's top fps optionally wrong) and a one-factor experiment."""
     import shutil
 
     for r in ("a", "b"):
         shutil.copytree(RUN42, root / "runs" / r, ignore=shutil.ignore_patterns("vidtrack"))
+        scene = root / "runs" / r / "scene.toml"
+        scene.write_text(scene.read_text().replace('name = "run42"', f'name = "run42-{r}"', 1))
     if top_fps_b:
         scene = root / "runs" / "b" / "scene.toml"
         text = scene.read_text()

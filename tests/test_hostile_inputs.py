@@ -34,6 +34,9 @@ import hashlib
 import os
 import re
 import shutil
+import subprocess
+import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -95,7 +98,9 @@ def both(*setups):
     def setup(w):
         out = {}
         for s in setups:
-            out.update(s(w) or {})
+            made = s(w)
+            if isinstance(made, dict):
+                out.update(made)
         return out
     return setup
 
@@ -490,14 +495,17 @@ EXPERIMENT = ('schema = 1\ndesign = "{design}"\nresponses = {responses}\nruns = 
 
 
 def experiment(name="n_rpm", design="ccd", responses='["k1", "k2", "k3", "k4"]',
-               scene=None):
+               scene=None, names=("run42-a", None)):
     """A setup: ``exp/`` with experiment.toml and two copies of run42 in ``exp/runs/``
-    (the second one's scene.toml edited by ``scene(text)``)."""
+    (the second one's scene.toml edited by ``scene(text)``), their ``[run] name`` set
+    to ``names`` (None: run42's own)."""
     def setup(w):
         for i, r in enumerate(("a", "b")):
+            def edit(text, i=i):
+                text = text if names[i] is None else _named(names[i])(text)
+                return scene(text) if scene is not None and i == 1 else text
             run42_copy(f"exp/runs/{r}", drop=("vidtrack", "truth.json",
-                                               "vidtrack-synth.toml"),
-                       scene=scene if i == 1 else None)(w)
+                                               "vidtrack-synth.toml"), scene=edit)(w)
         (w / "exp" / "experiment.toml").write_text(
             EXPERIMENT.format(name=name, design=design, responses=responses))
     return setup
@@ -709,6 +717,462 @@ CASES += [
 ]
 
 
+# ------------------------------------------------------------------ issue 41
+# Interruptions, a full disk, links, names that end up in files and terminals, numbers
+# at the float limits. A full disk is a real one: a small tmpfs mounted over the output
+# folder (skips, saying why, where this process cannot mount one).
+
+def killed(out, stage, *args):
+    """A setup: ``vidtrack ARGS`` killed (SIGKILL, as by a power cut or the OOM killer)
+    once a file is in its staging folder ``w/out/STAGE``, so the folder is left behind."""
+    def setup(w):
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "vidtrack", *(str(a).format(w=w, repo=REPO) for a in args)],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and proc.poll() is None:
+            if (w / out).is_dir() and any(p.is_file() for p in (w / out).glob(stage + "/*")):
+                break
+            time.sleep(0.005)
+        proc.kill()
+        proc.wait()
+        assert list((w / out).glob(stage)), "the command was not caught half-way"
+    return setup
+
+
+def interrupted_synth(name="run", *options):
+    """A setup: ``vidtrack synth`` into ``w/name`` killed while it renders."""
+    return killed(name, ".synth-*.part", "synth", "{w}/" + name, "--size", "320x240",
+                  "--flight-s", "0.4", "-q", *options)
+
+
+def no_hidden_leftovers(folder):
+    def check(w, res):
+        hidden = [p.name for p in (w / folder).iterdir() if p.name.startswith(".")]
+        assert hidden == [], hidden
+    return check
+
+
+def _unmount_all(w):
+    """Unmount every file system mounted under ``w`` (the tmpfs of :func:`full_disk`)."""
+    with open("/proc/mounts", encoding="utf-8") as f:
+        points = [line.split()[1] for line in f]
+    for point in sorted(points, reverse=True):
+        point = point.replace("\\040", " ")
+        if point == str(w) or point.startswith(str(w) + os.sep):
+            subprocess.run(["umount", point], check=False, capture_output=True)
+
+
+def full_disk(folder, *, free_kb=0, size_kb=256, fill=lambda w: ()):
+    """A setup: a ``size_kb`` tmpfs mounted on ``w/folder`` (made if missing), holding
+    copies of the files ``fill(w)`` returns and then a filler file that leaves ``free_kb`` free: a
+    real full disk for the outputs. Skips where mounting is not possible (not root,
+    no mount)."""
+    def setup(w):
+        target = w / folder
+        target.mkdir(parents=True, exist_ok=True)
+        if shutil.which("mount") is None:
+            pytest.skip("no mount command: cannot make a small full file system")
+        res = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size_kb}k", "tmpfs",
+                              str(target)], capture_output=True, text=True)
+        if res.returncode != 0:
+            pytest.skip("cannot mount a small tmpfs to fill (needs root): "
+                        + (res.stderr.strip() or f"exit {res.returncode}"))
+        for source in fill(w):
+            shutil.copy(source, target)
+        fd = os.open(target / "filler.bin", os.O_WRONLY | os.O_CREAT, 0o644)
+        try:
+            while os.write(fd, b"\0" * 4096):
+                pass
+        except OSError:                     # the device is full
+            pass
+        finally:
+            os.close(fd)
+        if free_kb:
+            with open(target / "filler.bin", "r+b") as f:
+                f.truncate(max(0, os.path.getsize(target / "filler.bin") - free_kb * 1024))
+    return setup
+
+
+#: Runs fitted once per test process, copied by :func:`fitted_run` (a fit takes seconds).
+_FITTED = {}
+
+
+def fitted_run(name="run", run_name=None):
+    """A setup: run42 fitted (its vidtrack/ outputs with stages.json) copied to
+    ``w/name``, its ``[run] name`` set to ``run_name``; the fit is made once per test
+    process and ``run_name`` and copied with its times kept, so later fits reuse it."""
+    def setup(w):
+        import tempfile
+
+        if run_name not in _FITTED:
+            base = Path(tempfile.mkdtemp(prefix="vidtrack-fitted-")) / "run"
+            run42_copy("run", drop=("vidtrack", "truth.json", MARKER),
+                       scene=None if run_name is None else _named(run_name))(base.parent)
+            res = run_vidtrack("fit", base, "-q")
+            assert res.returncode == 0, res.stderr
+            _FITTED[run_name] = base
+        (w / name).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copytree(_FITTED[run_name], w / name)
+    return setup
+
+
+def _named(run_name):
+    def edit(text):
+        import json
+
+        return re.sub(r'(?m)^name = .*$', lambda m: "name = " + json.dumps(run_name), text,
+                      count=1)
+    return edit
+
+
+def fitted_experiment(*run_names, n_rpm=(450, 550, 650, 750, 850, 950, 1050, 1150)):
+    """A setup: ``exp/`` whose runs ``runs/a``, ``runs/b``... are fitted copies of run42
+    named ``run_names`` (see :func:`fitted_run`), with experiment.toml (factor A). Each
+    copy's fit.json is given its n_rpm (``n_rpm[i]``) and k's scaled by
+    (1 + i/10 + i^2/50) as if its footage had shown them, and stages.json the new
+    file's digest, so that the report reuses every fit and has something to analyse."""
+    def setup(w):
+        import hashlib
+        import json
+
+        for i, (letter, rn) in enumerate(zip("abcdefgh", run_names)):
+            fitted_run(f"exp/runs/{letter}", rn)(w)
+            out = w / "exp" / "runs" / letter / "vidtrack"
+            record = json.loads((out / "fit.json").read_text(encoding="utf-8"))
+            record["factors"]["n_rpm"] = n_rpm[i]
+            for c in record["coefficients"].values():
+                if c["determined"]:
+                    c["value"] *= 1 + i / 10 + i * i / 50
+            text = json.dumps(record, indent=2) + "\n"
+            (out / "fit.json").write_text(text, encoding="utf-8")
+            stages = json.loads((out / "stages.json").read_text(encoding="utf-8"))
+            stages["fit"]["files"]["fit.json"] = hashlib.sha256(text.encode()).hexdigest()
+            (out / "stages.json").write_text(json.dumps(stages), encoding="utf-8")
+        (w / "exp" / "experiment.toml").write_text(
+            EXPERIMENT.format(name="n_rpm", design="ccd", responses='["k1", "k3"]'))
+    return setup
+
+
+def same_dlt_for_both_cameras(text):
+    """A scene edit of a ``synth --cameras perspective`` run: cam1 given cam2's DLT."""
+    dlt = re.search(r"\[views\.cam2\].*?\n(dlt = \[.*?\]\npixel_origin = .*?\n)", text,
+                    re.S).group(1)
+    return re.sub(r"projection = \[\n(?:    .*\n)+\]\n", dlt, text, count=1)
+
+
+def scene_edit(name, edit):
+    def setup(w):
+        path = w / name / "scene.toml"
+        path.write_text(edit(path.read_text(encoding="utf-8")), encoding="utf-8")
+    return setup
+
+
+def link(target, name):
+    def setup(w):
+        (w / name).parent.mkdir(parents=True, exist_ok=True)
+        os.symlink(target, w / name)
+    return setup
+
+
+def flip_byte(name, offset, mask=0xFF):
+    def setup(w):
+        data = bytearray((w / name).read_bytes())
+        data[offset] ^= mask
+        (w / name).write_bytes(bytes(data))
+    return setup
+
+
+def csv_cells_not_formulas(path, column):
+    def check(w, res):
+        with open(w / path, newline="", encoding="utf-8") as f:
+            for row in csv.DictReader(f):
+                assert row[column][:1] not in ("=", "+", "-", "@", "\t", "\r"), row[column]
+    return check
+
+
+def no_control_characters(w, res):
+    for stream in (res.stdout, res.stderr):
+        bad = [c for c in stream if ord(c) < 32 and c not in "\n" or ord(c) == 127]
+        assert not bad, repr(stream[-2000:])
+
+
+def stderr_lacks(pattern):
+    def check(w, res):
+        assert not re.search(pattern, res.stderr), res.stderr[-2000:]
+    return check
+
+
+#: A run name as a spreadsheet formula with a terminal escape sequence in it.
+FORMULA = '=HYPERLINK("http://x.example","\u001b[2J\u001b[31mclick")'
+#: Run names of a four-run experiment that a spreadsheet would take for formulas.
+REPORT_NAMES = (FORMULA, "+1-2", "@SUM(A1)", "-b")
+#: Offset of TriggerTime's high byte (seconds) in a .cine header (cine.py, _HEADER).
+CINE_TRIGGER_HIGH_BYTE = 43
+
+CASES += [
+    # ---- an interrupted synth is run again (item 1) -----------------------------------
+    Case("synth-rerun-after-a-killed-synth", setup=interrupted_synth("run"),
+         args=("synth", "run", *TINY), code=0, mutable=("run/*",),
+         check=all_of(no_hidden_leftovers("run"),
+                      marker_lists("run", "front.avi", "top.avi", "scene.toml",
+                                   "truth.json"))),
+    Case("synth-force-rerun-after-a-killed-force-synth",
+         setup=both(synthetic_run("run"), interrupted_synth("run", "--force")),
+         args=("synth", "run", "--force", *TINY), code=0, mutable=("run/*",),
+         check=no_hidden_leftovers("run")),
+    Case("frames-rerun-after-a-killed-export",
+         setup=both(files({"out/notes.txt": "mine"}),
+                    killed("out", ".frames-*.part", "frames", "{repo}/datasets/run42/front.avi",
+                           "{w}/out", "--fps", "1200", "-q")),
+         args=("frames", "{repo}/datasets/run42/front.avi", "out", "--fps", "1200",
+               "--range", "0:2", "-q"), code=0, mutable=("out/.frames-*",),
+         check=all_of(no_hidden_leftovers("out"),
+                      listing("out", "frame_000000.png", "frame_000001.png", "frames.csv",
+                              "notes.txt"))),
+    Case("synth-hidden-file-not-its-own",
+         setup=files({"run/.synth-notes.txt": "mine"}), args=("synth", "run", *TINY),
+         stderr=r"run: the folder is not empty \(holds \.synth-notes\.txt\)"),
+    # ---- calibrated cameras without parallax (item 2) ---------------------------------
+    Case("fit-calibrated-cameras-with-the-same-dlt",
+         setup=both(synthetic_run("run", "--cameras", "perspective"),
+                    scene_edit("run", same_dlt_for_both_cameras)),
+         args=("fit", "run"),
+         stderr=r"run/scene\.toml: views\.cam2 has its camera centre where views\.cam1 has "
+                r"its .*no parallax.*expected cameras at different places"),
+    # ---- an experiment's runs: names once, links that lead nowhere (items 3, 4) ------
+    Case("report-two-runs-with-the-same-name",
+         setup=experiment(names=(None, None)), args=("report", "exp"),
+         stderr=r"exp/runs/a and exp/runs/b both have the run name 'run42' \(\[run\] name "
+                r"in scene\.toml\); expected each run of an experiment named once"),
+    Case("report-a-run-folder-that-is-a-dangling-link",
+         setup=both(experiment(), link("gone", "exp/runs/c")),
+         args=("report", "exp"),
+         stderr=r"exp/experiment\.toml: runs = 'runs/\*' matches exp/runs/c, a link to "
+                r"gone, which does not exist; expected every run folder there"),
+    Case("report-a-run-folder-that-is-a-link-loop",
+         setup=both(experiment(), link("c", "exp/runs/c")),
+         args=("report", "exp"), stderr=r"matches exp/runs/c, a link .*loop"),
+    Case("report-a-run-folder-through-a-good-link",
+         setup=both(experiment(name="n_rmp"),
+                    run42_copy("elsewhere/c", scene=_named("run42-c")),
+                    link("../../elsewhere/c", "exp/runs/c")),
+         args=("report", "exp"), stderr=r"exp/runs/a/scene\.toml: \[factors\] has no 'n_rmp'"),
+    Case("report-the-same-run-twice-through-a-link",
+         setup=both(experiment(), link("b", "exp/runs/c")), args=("report", "exp"),
+         stderr=r"exp/runs/b and exp/runs/c both have the run name 'run42'"),
+    # ---- a full disk: every command, exit 2, outputs whole or absent (item 5) ---------
+    Case("fit-full-disk", setup=both(run42_copy(), full_disk("run/vidtrack")),
+         args=("fit", "run", "-q"),
+         stderr=r"^vidtrack fit: error: run 'run42' \(run\): no space left on device writing "
+                r"run/vidtrack/\S+; expected room for the outputs"),
+    Case("fit-nearly-full-disk",
+         setup=both(run42_copy(), full_disk("run/vidtrack", free_kb=48, size_kb=512)),
+         args=("fit", "run", "-q"), stderr=r"no space left on device writing run/vidtrack/"),
+    Case("frames-full-disk", setup=full_disk("d"),
+         args=("frames", "{repo}/datasets/run42/front.avi", "d/out", "--fps", "1200",
+               "--range", "0:40", "-q"),
+         stderr=r"no space left on device writing d/out/\S+; expected room"),
+    Case("frames-nearly-full-disk", setup=full_disk("d", free_kb=64),
+         args=("frames", "{repo}/datasets/run42/front.avi", "d/out", "--fps", "1200",
+               "--range", "0:40", "-q"), stderr=r"no space left on device writing d/out/"),
+    Case("frames-full-disk-out-is-the-mount-point", setup=full_disk("out", free_kb=64),
+         args=("frames", "{repo}/datasets/run42/front.avi", "out", "--fps", "1200",
+               "--range", "0:40", "-q"), stderr=r"no space left on device writing out/"),
+    Case("frames-into-a-mount-point", setup=full_disk("out", size_kb=4096, free_kb=2048),
+         args=("frames", "{repo}/datasets/run42/front.avi", "out", "--fps", "1200",
+               "--range", "0:3", "-q"), code=0,
+         check=listing("out", "filler.bin", "frames.csv", "frame_000000.png",
+                       "frame_000001.png", "frame_000002.png")),
+    Case("synth-full-disk", setup=full_disk("d"), args=("synth", "d/run", *TINY),
+         stderr=r"no space left on device writing d/run/"),
+    Case("synth-nearly-full-disk", setup=full_disk("d", free_kb=40),
+         args=("synth", "d/run", *TINY), stderr=r"no space left on device writing d/run/"),
+    Case("anova-report-full-disk", setup=both(chen_table(), full_disk("d")),
+         args=("anova", "t.csv", "--response", "k1", "--report", "d/r.html"),
+         stderr=r"no space left on device writing d/r\.html"),
+    Case("calibrate-full-disk", setup=full_disk("d"),
+         args=("calibrate", "ruler", *RULER, "-o", "d/c.toml"),
+         stderr=r"no space left on device writing d/c\.toml"),
+    Case("predict-plot-full-disk", setup=full_disk("d"),
+         args=("predict", *SETTING, "--plot", "d/p.png"),
+         stderr=r"no space left on device writing d/p\.png"),
+    Case("init-full-disk",
+         setup=full_disk("run", size_kb=4096, fill=lambda w: [RUN42 / "front.avi"]),
+         args=("init", "run", "--front", "front.avi"),
+         stderr=r"no space left on device writing run/scene\.toml"),
+    Case("overlay-full-disk",
+         setup=both(fitted_run("run"), lambda w: (w / "run/vidtrack").rename(w / "saved"),
+                    full_disk("run/vidtrack", size_kb=8192, free_kb=16,
+                              fill=lambda w: sorted((w / "saved").iterdir())),
+                    lambda w: shutil.rmtree(w / "saved")),
+         args=("overlay", "run", "-q"),
+         stderr=r"no space left on device writing run/vidtrack/overlay_"),
+    Case("report-full-disk", setup=both(fitted_experiment(*REPORT_NAMES),
+                                        full_disk("exp/vidtrack")),
+         args=("report", "exp", "-q"),
+         stderr=r"no space left on device writing exp/vidtrack/"),
+    # ---- numbers at the float limits in a scene, before any tracking (item 7) ---------
+    Case("fit-manual-point-1e308",
+         setup=both(run42_copy(scene=with_manual()), manual_csv("frame,u_px,v_px\n60,1e308,50\n")),
+         args=("fit", "run"),
+         stderr=r"run/scene\.toml: views\.front\.manual_points \(m\.csv, line 2\) u_px must be "
+                r"within \+-1e\+06 px \(an image position\), got '1e308'"),
+    Case("fit-origin-1e308",
+         setup=run42_copy(scene=lambda t: t.replace("origin_px = [", "origin_px = [1e308, 0] #",
+                                                    1)),
+         args=("fit", "run"),
+         stderr=r"run/scene\.toml: views\.front\.origin_px must be within \+-1e\+06 px .*got "
+                r"\[1e\+308, 0\]"),
+    Case("fit-ruler-end-1e300",
+         setup=run42_copy(scene=lambda t: re.sub(r"from_px = \[[^\]]*\]", "from_px = [0, -1e300]",
+                                                 t, count=1)),
+         args=("fit", "run"), stderr=r"ruler\.from_px must be within \+-1e\+06 px"),
+    Case("fit-target-at-1e308",
+         setup=run42_copy(scene=scene_value("target", "{ frame = 10, at_px = [1e308, 1] }")),
+         args=("fit", "run"), stderr=r"views\.front\.target\.at_px must be within \+-1e\+06 px"),
+    # ---- a damaged .cine header (item 8) ---------------------------------------------
+    Case("frames-cine-trigger-time-flipped",
+         setup=both(synthetic_run("run", "--format", "cine", "--views", "front"),
+                    flip_byte("run/front.cine", CINE_TRIGGER_HIGH_BYTE)),
+         args=("frames", "run/front.cine", "out", "-q"),
+         stderr=r"run/front\.cine: damaged header: trigger_time .*expected"),
+    Case("fit-cine-trigger-time-flipped",
+         setup=both(synthetic_run("run", "--format", "cine", "--views", "front"),
+                    flip_byte("run/front.cine", CINE_TRIGGER_HIGH_BYTE)),
+         args=("fit", "run"), stderr=r"run/front\.cine: damaged header: trigger_time"),
+    # ---- names that end up in files and on the terminal (item 9) ---------------------
+    Case("fit-run-name-with-escape-sequences", setup=fitted_run("run", FORMULA),
+         args=("fit", "run"), code=0, mutable=("run/vidtrack/*",),
+         check=all_of(no_control_characters, stdout_has(r"\\x1b\[2J"))),
+    Case("report-run-names-that-are-formulas", setup=fitted_experiment(*REPORT_NAMES),
+         args=("report", "exp"), code=0, mutable=("exp/runs/*/vidtrack/*",),
+         check=all_of(csv_cells_not_formulas("exp/vidtrack/coefficients.csv", "run"),
+                      no_control_characters,
+                      stderr_lacks(r"Warning:|warnings\.warn|\.py:\d+"))),
+    Case("report-aliased-term-is-a-warning-line-not-a-python-warning",
+         setup=fitted_experiment(*REPORT_NAMES, n_rpm=(450, 650, 450, 650)),
+         args=("report", "exp"), code=0, mutable=("exp/runs/*/vidtrack/*",),
+         stderr=r"(?m)^vidtrack report: warning: response 'k1': term\(s\) A\^2 cannot be "
+                r"estimated from this design .*; left out of the model$",
+         check=stderr_lacks(r"AliasedTermWarning|warnings\.warn|\.py:\d+")),
+    Case("report-run-folder-name-with-a-newline",
+         setup=both(experiment(),
+                    lambda w: (w / "exp/runs/b").rename(w / "exp/runs/b\nc"),
+                    scene_edit("exp/runs/b\nc", lambda t: t.replace("fps = 1200", "fps = 0", 1))),
+         args=("report", "exp"), stderr=r"exp/runs/b\\nc/scene\.toml: views\.front\.fps"),
+    Case("fit-scene-duplicate-key",
+         setup=run42_copy(scene=lambda t: t.replace("fps = 1200", "fps = 1200\nfps = 600", 1)),
+         args=("fit", "run"),
+         stderr=r"run/scene\.toml: views\.front\.fps is given twice \(line \d+\); expected "
+                r"each key once"),
+    Case("fit-scene-duplicate-table",
+         setup=run42_copy(scene=lambda t: t + "\n[views.top]\nfps = 1\n"),
+         args=("fit", "run"), stderr=r"run/scene\.toml: the table \[views\.top\] is declared "
+                                     r"twice \(line \d+\)"),
+    Case("anova-cell-nan", setup=chen_table(edit=cell(3, "k1", "nan")),
+         args=("anova", "t.csv", "--response", "k1"),
+         stderr=r"t\.csv: row 3 \(line 4\), column 'k1': the cell is NaN \('nan'\); expected "
+                r"a number"),
+    # ---- the stage cache says when it reuses (item 11) -------------------------------
+    Case("fit-says-when-it-reuses-a-stage", setup=fitted_run("run"),
+         args=("fit", "run", "--model", "linear"), code=0, mutable=("run/vidtrack/*",),
+         stderr=r"note: run 'run42' \(run\): tracks reused from run/vidtrack/tracks\.h5 "
+                r"\(computed at \S+, same scene, footage, tracker and settings"),
+]
+
+
+def physics_value(key, value):
+    """A scene edit: ``key = value`` in run42's [physics] table."""
+    def edit(text):
+        return text.replace("[physics]\n", f"[physics]\n{key} = {value}\n", 1) if \
+            f"{key} =" not in text else re.sub(rf"(?m)^{key} = .*$", f"{key} = {value}", text)
+    return edit
+
+
+def straw_table(text):
+    return lambda scene: re.sub(r"(?ms)^\[straw\]\n.*?(?=^\[)", "[straw]\n" + text + "\n",
+                                scene, count=1)
+
+
+def renamed_camera_view(name):
+    """A scene edit of a ``synth --cameras perspective`` run: cam2 renamed ``name``."""
+    return lambda text: text.replace("[views.cam2]", f"[views.{name}]", 1)
+
+
+CASES += [
+    # ---- numbers at the float limits, refused when the scene is read -----------------
+    Case("fit-gravity-1e308", setup=run42_copy(scene=physics_value("gravity_m_s2", "1e308")),
+         args=("fit", "run"),
+         stderr=r"run/scene\.toml: physics\.gravity_m_s2 must be between 0\.01 and 1000 "
+                r"m/s\^2, got 1e\+308"),
+    Case("fit-air-density-1e308",
+         setup=run42_copy(scene=physics_value("air_density_kg_m3", "1e308")),
+         args=("fit", "run"), stderr=r"physics\.air_density_kg_m3 must be between 0 and 100"),
+    Case("fit-straw-mass-5e-324",
+         setup=run42_copy(scene=straw_table("mass_kg = 5e-324\narea_m2 = 0.01\n"
+                                            "drag_coefficient = 1.0\n")),
+         args=("fit", "run"), stderr=r"straw\.mass_kg must be between 1e-09 and 1000 kg"),
+    Case("fit-straw-cp-1e300", setup=run42_copy(scene=straw_table("cp_s_per_m = 1e300\n")),
+         args=("fit", "run"),
+         stderr=r"straw\.cp_s_per_m gives Cp = 1e\+300 s/m; expected Cp <= 10 s/m"),
+    Case("fit-machine-speed-1e308",
+         setup=run42_copy(scene=lambda t: t.replace("[machine]\nspeed_kmh = 7.2",
+                                                    "[machine]\nspeed_kmh = 1e308", 1)),
+         args=("fit", "run"), stderr=r"machine\.speed_kmh must be between 0 and 100 km/h"),
+    Case("fit-factor-1e308",
+         setup=run42_copy(scene=lambda t: t.replace("n_rpm = 550", "n_rpm = 1e308", 1)),
+         args=("fit", "run"),
+         stderr=r"run/scene\.toml: factors\.n_rpm must be within \+-1e\+12 .*got 1e\+308"),
+    Case("report-factor-centre-1e308",
+         setup=both(experiment(), lambda w: (w / "exp/experiment.toml").write_text(
+             (w / "exp/experiment.toml").read_text().replace("centre = 550",
+                                                             "centre = 1e308"))),
+         args=("report", "exp"),
+         stderr=r"exp/experiment\.toml: factors\.A\.centre must be between -1e\+12 and 1e\+12"),
+    Case("report-factor-step-5e-324",
+         setup=both(experiment(), lambda w: (w / "exp/experiment.toml").write_text(
+             (w / "exp/experiment.toml").read_text().replace("step = 100", "step = 5e-324"))),
+         args=("report", "exp"), stderr=r"factors\.A\.step must be between 1e-12 and 1e\+12"),
+    # ---- names that end up in file names and table columns ---------------------------
+    Case("fit-camera-view-named-a-path",
+         setup=both(synthetic_run("run", "--cameras", "perspective"),
+                    scene_edit("run", renamed_camera_view('"../../escaped"'))),
+         args=("fit", "run"),
+         stderr=r"run/scene\.toml: views\.'\.\./\.\./escaped' is not a usable view name: it "
+                r"names output files .*expected a letter or digit"),
+    Case("fit-camera-view-named-a-formula",
+         setup=both(synthetic_run("run", "--cameras", "perspective"),
+                    scene_edit("run", renamed_camera_view('"=1+1"'))),
+         args=("fit", "run"), stderr=r"views\.'=1\+1' is not a usable view name"),
+    Case("fit-camera-view-named-with-an-escape",
+         setup=both(synthetic_run("run", "--cameras", "perspective"),
+                    scene_edit("run", renamed_camera_view('"cam\\u001b[2J"'))),
+         args=("fit", "run"), stderr=r"views\.'cam\\x1b\[2J' is not a usable view name"),
+    Case("report-run-folder-name-with-an-escape",
+         setup=both(experiment(),
+                    lambda w: (w / "exp/runs/b").rename(w / "exp/runs/b\x1b[2J"),
+                    scene_edit("exp/runs/b\x1b[2J",
+                               lambda t: t.replace("fps = 1200", "fps = 0", 1))),
+         args=("report", "exp"),
+         stderr=r"exp/runs/b\\x1b\[2J/scene\.toml: views\.front\.fps"),
+    # ---- links ----------------------------------------------------------------------
+    Case("fit-source-is-a-dangling-link",
+         setup=both(run42_copy(), lambda w: (w / "run/top.avi").unlink(),
+                    link("nowhere.avi", "run/top.avi")),
+         args=("fit", "run"), stderr=r"views\.top\.source: run/top\.avi does not exist"),
+    Case("fit-manual-points-a-dangling-link",
+         setup=both(run42_copy(scene=with_manual()), link("gone.csv", "run/m.csv")),
+         args=("fit", "run"), stderr=r"views\.front\.manual_points names 'm\.csv', but"),
+    Case("synth-out-is-a-dangling-link", setup=link("gone", "run"),
+         args=("synth", "run", *TINY),
+         stderr=r"run: is a link to gone, which does not exist; expected a folder"),
+    Case("frames-out-is-a-dangling-link", setup=link("gone", "out"),
+         args=("frames", "{repo}/datasets/run42/front.avi", "out", "--fps", "1200"),
+         stderr=r"out: is a link to gone, which does not exist; expected a folder"),
+]
+
+
 # ------------------------------------------------------------------ the runner
 
 def _tree(folder):
@@ -738,6 +1202,7 @@ def work(tmp_path):
     w = tmp_path / "w"
     w.mkdir()
     yield w
+    _unmount_all(w)
     for root, dirs, _ in os.walk(w):        # an unwritable folder made writable again
         for d in dirs:
             os.chmod(os.path.join(root, d), 0o755)

@@ -1,9 +1,59 @@
 """Outputs appear whole or not at all: write to a temporary name, then rename."""
 
 import contextlib
+import errno
 import os
 import tempfile
 from pathlib import Path
+
+#: errno values that mean the device (or the user's quota) is full.
+DISK_FULL_ERRNOS = (errno.ENOSPC, errno.EDQUOT)
+#: How libraries that do not set errno (HDF5 through h5py) say it.
+_DISK_FULL_TEXTS = ("no space left on device", "disk quota exceeded", "errno = 28")
+
+
+def is_disk_full(exc):
+    """True when ``exc`` (any exception) says the device or the quota is full."""
+    if not isinstance(exc, OSError):
+        return False
+    if exc.errno in DISK_FULL_ERRNOS:
+        return True
+    return any(t in str(exc).lower() for t in _DISK_FULL_TEXTS)
+
+
+def disk_full(exc, path=None):
+    """The :class:`~vidtrack.errors.DiskFullError` for ``exc``, or None when ``exc`` is
+    not a full disk.
+
+    Parameters
+    ----------
+    exc : BaseException
+        What writing raised (``OSError`` with ``errno.ENOSPC`` or ``EDQUOT``, or
+        h5py's ``OSError`` whose text says so).
+    path : str or os.PathLike, optional
+        The output being written (default: the file the error names, if any).
+
+    Returns
+    -------
+    DiskFullError or None
+        One line: ``no space left on device writing out/tracks.h5; expected room for
+        the outputs (free some space there or choose another output folder)``.
+
+    Example
+    -------
+    >>> import errno
+    >>> str(disk_full(OSError(errno.ENOSPC, "No space left on device"), "a.csv"))[:50]
+    'no space left on device writing a.csv; expected ro'
+    """
+    from vidtrack.errors import DiskFullError
+
+    if not is_disk_full(exc):
+        return None
+    where = path if path is not None else (getattr(exc, "filename", None) or "the outputs")
+    what = ("disk quota exceeded" if getattr(exc, "errno", None) == errno.EDQUOT
+            else "no space left on device")
+    return DiskFullError(f"{what} writing {where}; expected room for the outputs (free "
+                         "some space there or choose another output folder)")
 
 
 def _umask():
@@ -17,7 +67,8 @@ def atomic_path(path):
     """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
 
     On any exception (including KeyboardInterrupt) the temporary file is removed and
-    ``path`` is left as it was.
+    ``path`` is left as it was; a full disk is raised as a
+    :class:`~vidtrack.errors.DiskFullError` naming ``path`` (:func:`disk_full`).
 
     Example
     -------
@@ -33,10 +84,73 @@ def atomic_path(path):
     try:
         yield tmp
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
+        full = disk_full(exc, path)
+        if full is not None:
+            raise full from exc
         raise
+
+
+#: Free space (bytes) under which a device is taken as full after a write that cannot
+#: report its errors (OpenCV's VideoWriter drops them): the file is then checked.
+NEARLY_FULL_BYTES = 1 << 20
+
+
+@contextlib.contextmanager
+def _quiet_stderr():
+    """File descriptor 2 sent to /dev/null for a while (C libraries' own prints)."""
+    import sys
+
+    with contextlib.suppress(OSError, ValueError):
+        sys.stderr.flush()
+    saved = os.dup(2)
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(null)
+
+
+def check_video_written(path, frames, final):
+    """Raise if OpenCV's VideoWriter silently lost frames of ``path`` to a full disk.
+
+    OpenCV's ``VideoWriter`` reports no write errors: on a full device it leaves a
+    truncated file. When the device holding ``path`` has less than
+    :data:`NEARLY_FULL_BYTES` free after the writer was released, the file is opened
+    again and must hold ``frames`` frames.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The video just written (a temporary name).
+    frames : int
+        The frames written to it.
+    final : str or os.PathLike
+        The output's name, for the message.
+
+    Raises
+    ------
+    DiskFullError
+        The device is full and the file does not hold every frame.
+    """
+    st = os.statvfs(Path(path).parent)
+    if st.f_bavail * st.f_frsize >= NEARLY_FULL_BYTES:
+        return
+    import cv2
+
+    with _quiet_stderr():       # OpenCV's parsers print about a truncated file
+        cap = cv2.VideoCapture(str(path))
+        try:
+            got = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap.isOpened() else 0
+        finally:
+            cap.release()
+    if got != frames:
+        raise disk_full(OSError(errno.ENOSPC, os.strerror(errno.ENOSPC)), final)
 
 
 def write_text(path, text):
@@ -107,8 +221,9 @@ def check_output(path, *, inputs=(), label=None, folder=False):
     ------
     VidtrackError
         ``path`` is one of ``inputs``; a file output that is a folder or a folder output
-        that is a file; a file where a parent folder should be; a folder that cannot be
-        written to. One line: the output, what is wrong, what was expected.
+        that is a file or a link that leads nowhere; a file where a parent folder should
+        be; a folder that cannot be written to. One line: the output, what is wrong,
+        what was expected.
     """
     from vidtrack.errors import VidtrackError
 
@@ -118,6 +233,9 @@ def check_output(path, *, inputs=(), label=None, folder=False):
         if given is not None and _same_file(path, Path(given)):
             raise VidtrackError(f"{label}: is the input {given}; inputs are never "
                                 "overwritten, expected a different output path")
+    if folder and path.is_symlink() and not path.exists():
+        raise VidtrackError(f"{label}: is a link to {os.readlink(path)}, which does not "
+                            "exist; expected a folder (new or existing) to write into")
     if folder and path.exists() and not path.is_dir():
         raise VidtrackError(f"{label}: exists and is not a folder; expected a folder "
                             "(new or existing) to write into")

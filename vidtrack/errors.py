@@ -30,5 +30,10 @@ class DisagreementError(VidtrackError):
     be wrong. ``vidtrack fit --accept-disagreement`` fits anyway, with a warning."""
 
 
+class DiskFullError(VidtrackError):
+    """An output could not be written: no space left on the device (or the quota is
+    used up). Nothing of the output is kept (:func:`vidtrack._atomic.disk_full`)."""
+
+
 #: Every exception the command line reports as bad input (exit code 2).
 INPUT_ERRORS = (VidtrackError, fits.errors.InputError, calibration.errors.InputError)

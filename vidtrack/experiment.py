@@ -6,13 +6,18 @@ has one row per run: ``run``, the coded factors (``A``, ``B``, ``C``), the facto
 natural units (their names) and the responses, with standard errors beside them.
 """
 
+import logging
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from vidtrack._atomic import atomic_path, write_text
+from vidtrack._text import csv_cell
 from vidtrack.errors import SceneError
+
+log = logging.getLogger(__name__)
 
 #: What ``vidtrack report`` writes into ``<experiment>/vidtrack/``.
 OUTPUTS = ("coefficients.csv", "anova.json", "report.html", "notes.txt")
@@ -32,7 +37,8 @@ def check_runs(experiment, scenes):
     Raises
     ------
     SceneError
-        A design the report cannot analyse, a response that no fit gives, a run whose
+        A design the report cannot analyse, a response that no fit gives, two runs with
+        one name (``[run] name``, by default the folder's name), a run whose
         scene.toml lacks a factor of the design or gives it as something else than a
         number (the message names the file, the factor, what the scene has).
     """
@@ -48,6 +54,14 @@ def check_runs(experiment, scenes):
             hint = f" (did you mean {near[0]!r}?)" if near else ""
             raise SceneError(f"{experiment.path}: responses names {k!r}{hint}; expected "
                              f"some of {', '.join(RESPONSES)}")
+    named = {}
+    for scene in scenes:
+        first = named.setdefault(scene.run_name, scene)
+        if first is not scene:
+            raise SceneError(f"{first.folder} and {scene.folder} both have the run name "
+                             f"{scene.run_name!r} ([run] name in scene.toml); expected each "
+                             "run of an experiment named once (the coefficient table has a "
+                             "row per run, told apart by its name)")
     for scene in scenes:
         for letter, factor in experiment.factors.items():
             if factor.name not in scene.factors:
@@ -112,7 +126,8 @@ def analyse(experiment, table, *, alpha=0.05):
     """Response-surface fits of every response of the experiment (``fits.rsm``).
 
     Runs where a response was not determined are left out of that response's fit (and
-    named in a note by the caller).
+    named in a note by the caller). A term the design cannot estimate is left out and
+    said through the ``vidtrack`` logger.
     """
     from fits.rsm import fit_rsm
 
@@ -121,28 +136,41 @@ def analyse(experiment, table, *, alpha=0.05):
                          "'vidtrack anova --design orthogonal' on the coefficient table")
     factors = rsm_factors(experiment)
     fits = []
-    for k in experiment.responses:
-        part = table[np.isfinite(table[k])]
-        fits.append(fit_rsm(part, k, factors, alpha=alpha))
+    # what the fit warns about (a term the design cannot estimate) is said through the
+    # vidtrack logger, as every message of the library, not as a Python warning
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for k in experiment.responses:
+            part = table[np.isfinite(table[k])]
+            fits.append(fit_rsm(part, k, factors, alpha=alpha))
+    for w in caught:
+        log.warning("%s", w.message)
     return fits
 
 
 def write_outputs(out_dir, experiment, table, fits, *, notes=()):
-    """coefficients.csv, anova.json and report.html in ``out_dir`` (each atomically)."""
+    """coefficients.csv, anova.json and report.html in ``out_dir`` (each atomically; if
+    one cannot be written, e.g. on a full disk, none of them is left)."""
     import json
 
     from vidtrack.report.anova_page import write_anova_report
 
     out_dir = Path(out_dir)
-    with atomic_path(out_dir / "coefficients.csv") as tmp:
-        table.to_csv(tmp, index=False)
-    write_text(out_dir / "anova.json",
-               json.dumps([f.to_dict() for f in fits], indent=2, allow_nan=False) + "\n")
-    write_anova_report(out_dir / "report.html", fits,
-                       title=f"Experiment {experiment_name(experiment)}",
-                       source="coefficients.csv")
-    if notes:
-        write_text(out_dir / "notes.txt", "\n".join(notes) + "\n")
+    try:
+        with atomic_path(out_dir / "coefficients.csv") as tmp:
+            # a run's name is the user's text: never a formula to a spreadsheet
+            table.assign(run=table["run"].map(csv_cell)).to_csv(tmp, index=False)
+        write_text(out_dir / "anova.json",
+                   json.dumps([f.to_dict() for f in fits], indent=2, allow_nan=False) + "\n")
+        write_anova_report(out_dir / "report.html", fits,
+                           title=f"Experiment {experiment_name(experiment)}",
+                           source="coefficients.csv")
+        if notes:
+            write_text(out_dir / "notes.txt", "\n".join(notes) + "\n")
+    except BaseException:       # a report is its files together: none of a half one
+        for name in OUTPUTS:
+            (out_dir / name).unlink(missing_ok=True)
+        raise
 
 
 def experiment_name(experiment):

@@ -94,7 +94,9 @@ def read_table(path, *, allow_duplicate_rows=False):
     if not path.is_file():
         raise InputError(f"{path}: no such file")
     try:
-        df = pd.read_csv(path, dtype=str, skipinitialspace=True, encoding="utf-8-sig")
+        # only an empty cell is missing: 'nan', 'NA' or 'null' are said as they are
+        df = pd.read_csv(path, dtype=str, skipinitialspace=True, encoding="utf-8-sig",
+                         keep_default_na=False, na_values=[""])
     except pd.errors.EmptyDataError:
         raise InputError(f"{path}: the file is empty; expected a CSV table with a "
                          "header row") from None
@@ -119,6 +121,10 @@ def read_table(path, *, allow_duplicate_rows=False):
     _check_duplicates(df, path, allow_duplicate_rows)
     df.attrs["source"] = str(path)
     return df
+
+
+#: Texts of a cell that mean "not a number" (said as NaN, not as an empty cell).
+_NAN_TEXTS = ("nan", "-nan", "+nan")
 
 
 def source_of(table):
@@ -147,6 +153,9 @@ def numeric_column(table, column):
         where = f"{source_of(table)}: row {i + 1} (line {i + 2}), column {column!r}"
         if v is None or (isinstance(v, float) and math.isnan(v)) or str(v).strip() == "":
             raise InputError(f"{where}: the cell is empty; expected a number")
+        if str(v).strip().lower() in _NAN_TEXTS:
+            raise InputError(f"{where}: the cell is NaN ({str(v).strip()!r}); expected a "
+                             "number")
         if isinstance(v, (int, float, np.integer, np.floating)):
             x = float(v)
         else:

@@ -4,8 +4,8 @@ Each subcommand is a module of this package with ``HELP`` (one line), ``DESCRIPT
 (with an example), ``add_arguments(parser)`` and ``run(args) -> int``. Command modules
 import heavy libraries inside ``run`` so that ``vidtrack --help`` stays fast.
 
-Exit codes: 0 success, 2 bad usage or bad input (one line on stderr, no traceback),
-1 internal error, 130 interrupted.
+Exit codes: 0 success, 2 bad usage or bad input (one line on stderr, no traceback) or
+a full disk (``no space left on device writing X``), 1 internal error, 130 interrupted.
 
 Messages: the library logs under the ``vidtrack``, ``fits`` and ``calibration`` loggers;
 :func:`main` puts one handler on stderr for them (``vidtrack COMMAND: warning: ...``),
@@ -21,6 +21,7 @@ import os
 import sys
 
 from vidtrack import LOGGERS  # the loggers configure_logging sets (re-exported)
+from vidtrack._text import printable
 
 # One BLAS thread per process, set before numpy loads: vidtrack's matrices are small
 # (hundreds of rows), where BLAS threads gain nothing, and the work is already spread
@@ -99,7 +100,7 @@ class CliFormatter(logging.Formatter):
         text = self.prefix + (f"{label}: " if label else "")
         if record.levelno <= logging.DEBUG:
             text += f"[{record.name}] "
-        text += record.getMessage()
+        text += printable(record.getMessage())     # one line, whatever names it holds
         if record.exc_info:
             text += "\n" + self.formatException(record.exc_info)
         return text
@@ -180,7 +181,8 @@ def main(argv=None):
     try:
         return int(args._run(args) or 0)
     except INPUT_ERRORS as exc:
-        print(f"vidtrack {args.command}: error: {exc}", file=sys.stderr)
+        # one line whatever the names in it hold (a newline, a terminal's escapes)
+        print(f"vidtrack {args.command}: error: {printable(exc)}", file=sys.stderr)
         return 2
     except BrokenPipeError:
         # the reader of the output went away (``| head``): nothing more to say
@@ -190,12 +192,25 @@ def main(argv=None):
         print(f"vidtrack {args.command}: interrupted; no partial output was kept",
               file=sys.stderr)
         return 130
+    except OSError as exc:
+        from vidtrack._atomic import disk_full
+
+        full = disk_full(exc)
+        if full is None:
+            return _internal(args, exc)
+        print(f"vidtrack {args.command}: error: {printable(full)}", file=sys.stderr)
+        return 2
     except Exception as exc:  # an internal error: say so, keep the traceback on request
-        if args.debug:
-            raise
-        print(f"vidtrack {args.command}: internal error: {type(exc).__name__}: {exc} "
-              "(run with 'vidtrack --debug ...' for the traceback)", file=sys.stderr)
-        return 1
+        return _internal(args, exc)
+
+
+def _internal(args, exc):
+    """Exit code 1 for an internal error: one line, the traceback with ``--debug``."""
+    if args.debug:
+        raise exc
+    print(f"vidtrack {args.command}: internal error: {type(exc).__name__}: {printable(exc)} "
+          "(run with 'vidtrack --debug ...' for the traceback)", file=sys.stderr)
+    return 1
 
 
 def run():

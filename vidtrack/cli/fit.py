@@ -92,6 +92,7 @@ def run(args):
     import logging
     import sys
 
+    from vidtrack._text import printable
     from vidtrack.run.pipeline import FitOptions, check_counts, find_runs, fit_runs
 
     check_counts(jobs=args.jobs, bootstrap=args.bootstrap, seed=args.seed)
@@ -106,7 +107,7 @@ def run(args):
         log.info("fitted %s", record["run"])
         if (not args.quiet and not args.json and sys.stderr.isatty()
                 and not log.isEnabledFor(logging.INFO)):
-            print(f"  fitted {record['run']}", file=sys.stderr)
+            print(f"  fitted {printable(record['run'])}", file=sys.stderr)
 
     try:
         with sigterm_as_interrupt():
@@ -119,7 +120,7 @@ def run(args):
     if args.json:
         print(json.dumps(records[0] if len(records) == 1 else records, indent=2))
     else:
-        print(format_records(records))
+        print(printable(format_records(records), keep="\n"))
     return 0
 
 

@@ -41,6 +41,7 @@ def run(args):
     import sys
     from pathlib import Path
 
+    from vidtrack._text import printable
     from vidtrack.cli.fit import INTERRUPTED, sigterm_as_interrupt
     from vidtrack.errors import VidtrackError
     from vidtrack.experiment import (OUTPUTS, analyse, check_runs, coefficient_table,
@@ -75,9 +76,11 @@ def run(args):
     table = coefficient_table(exp, records)
     fits = analyse(exp, table, alpha=args.alpha)
     write_outputs(out, exp, table, fits)
-    print(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    print(printable(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"),
+                    keep="\n"))
     for fit in fits:
         print()
         print(fit.summary())
-    print(f"\nwritten to {out}/ (coefficients.csv, anova.json, report.html)")
+    print(printable(f"\nwritten to {out}/ (coefficients.csv, anova.json, report.html)",
+                    keep="\n"))
     return 0

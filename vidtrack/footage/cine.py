@@ -77,6 +77,9 @@ CC_RGB, CC_JPEG, CC_UNINT = 0, 1, 2
 BI_RGB, BI_PACKED10, BI_PACKED12 = 0, 256, 1024
 TAG_IMAGE_TIME, TAG_TIME_ONLY, TAG_EXPOSURE_ONLY = 1001, 1002, 1003
 _FRACTION = 2 ** 32
+#: Largest time (s) between a .cine's TriggerTime and its first image's time stamp: a
+#: recording's images are taken around its trigger (Phantom buffers at most minutes).
+MAX_TRIGGER_GAP_S = 86400.0
 #: TriggerTime of the files :func:`write_cine` makes: 2020-01-01 00:00:00 UTC.
 WRITER_EPOCH_S = 1577836800
 
@@ -405,6 +408,21 @@ class CineSource(FrameSource):
                 self.notes += (f"time stamps do not increase at frame {k}; frames are timed by the "
                                "frame rate instead",)
         self.time_stamps_used = bool(use_time_stamps and self._stamps is not None)
+        self._check_trigger()
+
+    def _check_trigger(self):
+        """TriggerTime must be a TIME64 near the images' own stamps (a flipped byte is not)."""
+        t = int(self.header["trigger_time"])
+        if self._stamps is None:
+            return
+        first = int(self._stamps[0])
+        gap = abs(first - t) / _FRACTION
+        if gap > MAX_TRIGGER_GAP_S:
+            raise self._fail(
+                f"damaged header: trigger_time (TriggerTime, bytes 36-43) is {t >> 32} s after "
+                f"1970, {gap:.4g} s from the first image's time stamp ({first >> 32} s); "
+                f"expected the trigger within {MAX_TRIGGER_GAP_S:g} s of the images it "
+                "triggered (the file is damaged; export it again from the camera)")
 
     def _check_complete(self):
         """A truncated file fails at open, naming the first frame that is cut off."""

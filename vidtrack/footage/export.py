@@ -3,6 +3,7 @@ numbered png, jpg or tiff files plus ``frames.csv`` (frame index, time, file).
 """
 
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -122,13 +123,14 @@ def export_frames(source, out, *, every=1, fmt="png", quiet=False):
 
     Notes
     -----
-    Nothing is written unless every frame could be read and encoded: the images go to
-    a hidden staging folder beside ``out`` and are moved in at the end; ``frames.csv``
+    Nothing is written unless every frame could be read, encoded and written: the
+    images go to a hidden staging folder inside ``out`` and are moved in at the end; ``frames.csv``
     is written (atomically) last, so its presence means the export is complete.
     When ``out`` holds an earlier export, the images its ``frames.csv`` listed that the
     new one does not are removed after the new ones are in place (so no stale frame
     sits beside the new ``frames.csv``); other files in ``out`` are left alone.
     """
+    import contextlib
     import csv
     import io
     import shutil
@@ -160,8 +162,14 @@ def export_frames(source, out, *, every=1, fmt="png", quiet=False):
     width = max(6, len(str(int(numbers[-1]))))
     names = [f"frame_{int(numbers[i]):0{width}d}{ending}" for i in picks]
 
-    out.parent.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent))
+    created = not out.exists()
+    out.mkdir(parents=True, exist_ok=True)
+    # staged inside out (the same device even when out is a mount point); the staging
+    # folder of an export that was killed (its process gone) is removed first
+    for leftover in _leftovers(out):
+        shutil.rmtree(leftover, ignore_errors=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".frames-{os.getpid()}-", suffix=".part", dir=out))
+    moved = []
     try:
         frames = iter(source) if every == 1 else (source[i] for i in picks)
         for name, frame in progress(zip(names, frames), total=len(names), desc="frames",
@@ -170,16 +178,16 @@ def export_frames(source, out, *, every=1, fmt="png", quiet=False):
             if not ok:
                 raise VidtrackError(f"{name}: OpenCV could not encode a {frame.dtype} frame as "
                                     f"{fmt}")
-            data.tofile(stage / name)
+            _write_image(data, stage / name, out / name)
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
         writer.writerow(["frame", "t_s", "file"])
         for i, name in zip(picks, names):
             writer.writerow([int(numbers[i]), repr(float(times[i])), name])
-        out.mkdir(exist_ok=True)
         earlier = _earlier_files(out)
         for name in names:
             os.replace(stage / name, out / name)
+            moved.append(name)
         write_text(out / "frames.csv", buf.getvalue())
         stage.rmdir()
         kept = set(names)
@@ -188,9 +196,47 @@ def export_frames(source, out, *, every=1, fmt="png", quiet=False):
                 (out / name).unlink()
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
+        if moved:       # an export half in place is no export: its frames.csv goes too
+            for name in moved + ["frames.csv"]:
+                with contextlib.suppress(OSError):
+                    (out / name).unlink()
+        if created:
+            shutil.rmtree(out, ignore_errors=True)
         raise
     return FrameExport(out=out, files=tuple(names),
                        frame_numbers=tuple(int(numbers[i]) for i in picks),
                        times_s=tuple(float(times[i]) for i in picks), format=fmt,
                        dtype=str(source.dtype), bit_depth=source.bit_depth,
                        time_source=source.time_source)
+
+
+def _write_image(data, path, final):
+    """Write encoded image bytes; a full disk as DiskFullError naming ``final``."""
+    from vidtrack._atomic import disk_full
+
+    try:
+        with open(path, "wb") as f:
+            f.write(data.tobytes())
+    except OSError as exc:
+        full = disk_full(exc, final)
+        if full is not None:
+            raise full from exc
+        raise
+
+
+_STAGE_NAME = re.compile(r"\.frames-(\d+)-[a-z0-9_]{8}\.part")
+
+
+def _leftovers(out):
+    """Staging folders in ``out`` of exports whose process is gone (killed)."""
+    found = []
+    for p in out.iterdir():
+        m = _STAGE_NAME.fullmatch(p.name)
+        if m and p.is_dir() and not p.is_symlink():
+            try:
+                os.kill(int(m.group(1)), 0)
+            except ProcessLookupError:
+                found.append(p)
+            except OSError:
+                pass
+    return found

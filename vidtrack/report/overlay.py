@@ -248,7 +248,7 @@ def write_overlay(source, out_dir, view, track, path=None, *, every=1, scale=1.0
     """
     import cv2
 
-    from vidtrack._atomic import atomic_path
+    from vidtrack._atomic import atomic_path, check_video_written
     from vidtrack._progress import progress
 
     t_start = time.perf_counter()
@@ -302,6 +302,7 @@ def write_overlay(source, out_dir, view, track, path=None, *, every=1, scale=1.0
                 bar.update()
             writer.release()
             writer = None
+            check_video_written(work, written, final)
             os.replace(work, tmp)
         finally:
             bar.close()

@@ -27,7 +27,18 @@ from pathlib import Path
 
 from vidtrack._atomic import write_text
 
-__all__ = ["STAGES_FILE", "Stages", "file_digest", "utc_now"]
+__all__ = ["STAGES_FILE", "Stages", "file_digest", "utc_now", "stage_key", "tracker_version",
+           "FIT_ALGORITHM", "WORLD_ALGORITHM", "TRACK_ALGORITHM"]
+
+#: Version of the algorithm of each stage (outside the tracker): change it whenever the
+#: stage would compute something else from the same inputs and settings, so that no
+#: result of the older code is reused. The fit stage: fits.lsq's fit and its record.
+FIT_ALGORITHM = "fit-2026.11-1"
+#: The world track: the merge of orthogonal views and the triangulation of cameras.
+WORLD_ALGORITHM = "world-2026.11-1"
+#: The tracker, when vidtrack.track.tracker has no ``ALGORITHM_VERSION`` of its own;
+#: the digest of the tracker's source goes with it (:func:`tracker_version`).
+TRACK_ALGORITHM = "track-2026.11-1"
 
 STAGES_FILE = "stages.json"
 #: Layout of stages.json (1: bare keys, no digests, before vidtrack 0.2.1).
@@ -53,6 +64,73 @@ def file_digest(path):
         return h.hexdigest()
     except OSError:
         return None
+
+
+def stage_key(stage, *, algorithm, settings=None, inputs=None):
+    """The cache key of a stage: sha256 of what computes it and what it computes from.
+
+    Parameters
+    ----------
+    stage : str
+        ``"tracks"`` or ``"fit"``.
+    algorithm : str or dict
+        The version(s) of the code that computes it (:data:`FIT_ALGORITHM`,
+        :func:`tracker_version`, ...), never the package's version alone.
+    settings : dict, optional
+        Every setting that changes its result (the tracker's settings, the model...).
+    inputs : dict, optional
+        What it reads (the scene's hash, the footage's fingerprints, an earlier
+        stage's key).
+
+    Returns
+    -------
+    str
+        64 hex digits; equal keys mean the stage would compute the same.
+    """
+    text = json.dumps({"stage": stage, "algorithm": algorithm, "settings": settings,
+                       "inputs": inputs}, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+_TRACKER_DIGEST = None
+
+
+def tracker_version():
+    """The tracker's version for the tracks stage's key.
+
+    ``vidtrack.track.tracker.ALGORITHM_VERSION`` and its ``TrackerSettings`` defaults
+    when the tracker has them; else :data:`TRACK_ALGORITHM` with the sha256 of the
+    tracker package's source files, so that tracks made by other tracker code are
+    never reused (read once per process, a few milliseconds).
+
+    Returns
+    -------
+    dict
+        JSON-able: ``{"algorithm": ..., "source": ..., "defaults": ...}``.
+    """
+    global _TRACKER_DIGEST
+    import dataclasses
+
+    import vidtrack.track.tracker as tracker
+
+    own = getattr(tracker, "ALGORITHM_VERSION", None)
+    settings = getattr(tracker, "TrackerSettings", None)
+    defaults = None
+    if settings is not None and dataclasses.is_dataclass(settings):
+        try:
+            defaults = dataclasses.asdict(settings())
+        except TypeError:            # no defaults for some field
+            defaults = None
+    if own is not None:
+        return {"algorithm": str(own), "defaults": defaults}
+    if _TRACKER_DIGEST is None:
+        h = hashlib.sha256()
+        folder = Path(tracker.__file__).parent
+        for path in sorted(folder.rglob("*.py")):
+            h.update(path.relative_to(folder).as_posix().encode())
+            h.update(path.read_bytes())
+        _TRACKER_DIGEST = h.hexdigest()
+    return {"algorithm": TRACK_ALGORITHM, "source": _TRACKER_DIGEST, "defaults": defaults}
 
 
 def _valid_entry(entry):

@@ -19,6 +19,7 @@ A run with ``throws/`` is fitted per throw (outputs in ``<run>/vidtrack/<throw>/
 the run's ``fit.json`` holds the mean over the throws, as Chen et al. 2018 did.
 """
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -28,11 +29,12 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from vidtrack import __version__
 from vidtrack._atomic import write_text
 from vidtrack.run._workers import (ViewProcess, ViewThread, preload_later_stages, source_of,
                                     track_view)
 from vidtrack.errors import DisagreementError, FitError, SceneError, VidtrackError
+from vidtrack.run.cache import (FIT_ALGORITHM, WORLD_ALGORITHM, stage_key,  # noqa: I001
+                                tracker_version)
 from vidtrack.run.cache import STAGES_FILE, Stages, file_digest  # noqa: F401 (STAGES_FILE,
 from vidtrack.run.preflight import OUT_DIR, about, prepare_run  # noqa: F401  OUT_DIR: as before)
 
@@ -75,10 +77,6 @@ class FitOptions:
                 "seed": self.seed if self.bootstrap else None}
 
 
-def _digest(obj):
-    return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()
-
-
 def _file_fingerprint(path):
     """Size, mtime and a hash of the first and last MiB: cheap even for a 10 GB .cine."""
     path = Path(path)
@@ -114,6 +112,20 @@ def _remove_outputs(out_dir, stages, stage_names, files):
     stages.drop(*stage_names)
     for name in files:
         (Path(out_dir) / name).unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def _whole_or_none(out_dir, files):
+    """A stage's files and its stages.json entry written together or not at all: when
+    writing them fails (a full disk, Ctrl-C), the files written so far are removed, so
+    no output stands without the record that vouches for it."""
+    try:
+        yield
+    except BaseException:
+        for name in files:
+            with contextlib.suppress(OSError):
+                (Path(out_dir) / name).unlink()
+        raise
 
 
 def _track_views(scene, folder, options, timings, workers, *, label_of=lambda view: None):
@@ -192,10 +204,13 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
     # the scene's hash holds exclude_frames and the manual points file's name; the key
     # holds that file's content too (this folder's: a throw has its own), so an edited
     # CSV tracks again
-    key = _digest({"version": __version__, "scene": scene.hash, "tracker": TRACKER_SETTINGS,
-                   "sources": {n: _file_fingerprint(source_of(v, scene, folder))
-                               for n, v in scene.views.items()},
-                   "corrections": corrections_key(scene, folder)})
+    key = stage_key("tracks", algorithm={"tracker": tracker_version(),
+                                         "world": WORLD_ALGORITHM},
+                    settings={"tracker": TRACKER_SETTINGS},
+                    inputs={"scene": scene.hash,
+                            "sources": {n: _file_fingerprint(source_of(v, scene, folder))
+                                        for n, v in scene.views.items()},
+                            "corrections": corrections_key(scene, folder)})
     h5 = out_dir / "tracks.h5"
     if not options.force:
         reused = _reused_tracks(scene, out_dir, key, stages, timings, label_of(None))
@@ -226,9 +241,10 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
         if helper is not None:
             helper.send_tracks({n: tr.data for n, tr in tracks.items()})
         calibration = {n: v.to_dict() for n, v in scene.views.items()}
-    write_tracks(h5, tracks, world, scene_hash=scene.hash, calibration=calibration)
-    _write_tables(scene, out_dir, tracks, world)
-    stages.record("tracks", key, TRACKS_FILES)
+    with _whole_or_none(out_dir, TRACKS_FILES):
+        write_tracks(h5, tracks, world, scene_hash=scene.hash, calibration=calibration)
+        _write_tables(scene, out_dir, tracks, world)
+        stages.record("tracks", key, TRACKS_FILES)
     return key, tracks, world, False, helper
 
 
@@ -457,8 +473,9 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
 
     cp = _check_cp(scene, options)
     # tracks.h5 itself too: a track edited by hand (flags set, points removed) is refitted
-    fit_key = _digest({"tracks": tracks_key, "fit": options.key(), "cp": cp,
-                       "tracks_file": file_digest(out_dir / "tracks.h5")})
+    fit_key = stage_key("fit", algorithm=FIT_ALGORITHM, settings={**options.key(), "cp": cp},
+                        inputs={"tracks": tracks_key,
+                                "tracks_file": file_digest(out_dir / "tracks.h5")})
     needed = ("fit.json",) + (REPORT_FILES if options.report else ())
     if not options.force:
         ok, why = stages.check("fit", fit_key, needed)
@@ -479,6 +496,12 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
             _note(f"{label}: {why}; fitting again")
     _remove_outputs(out_dir, stages, ("fit",), FIT_FILES)
     notes = list(plan.notes.get(folder, [])) + _accepted(findings, label)
+    if reused:      # said on stderr and kept in fit.json: the tracks are not new
+        said = (f"tracks reused from {out_dir / 'tracks.h5'} (computed at "
+                f"{stages.at('tracks') or 'an earlier run'}, same scene, footage, tracker and "
+                "settings; --force tracks again)")
+        _note(f"{label}: {said}")
+        notes.append(said)
     t0 = time.perf_counter()
     try:
         fit = fit_throw(world.data, cp, g=scene.physics.gravity_m_s2, v1=scene.v1_m_s,
@@ -507,10 +530,11 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
     record["timings_s"] = {k: round(float(v), 6) for k, v in timings.items()}
     record["fitted_at"] = utc_now()
     # fit.json first: a report never stands without the fit it shows
-    write_text(out_dir / "fit.json", dumps(record))
-    for name, text in (pages or {}).items():
-        write_text(out_dir / name, text)
-    stages.record("fit", fit_key, needed, at=record["fitted_at"])
+    with _whole_or_none(out_dir, FIT_FILES):
+        write_text(out_dir / "fit.json", dumps(record))
+        for name, text in (pages or {}).items():
+            write_text(out_dir / name, text)
+        stages.record("fit", fit_key, needed, at=record["fitted_at"])
     return record
 
 

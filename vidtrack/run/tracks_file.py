@@ -203,66 +203,72 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
     path = Path(path)
     calibrated = _is_calibrated(world)
     _check_tracks(tracks, "tracks.h5", calibrated=calibrated)
-    with atomic_path(path) as tmp:
-        # the HDF5 1.8 layout (object headers with checksums) and a Fletcher-32 checksum
-        # on the datasets (_dataset): a file damaged on disk fails to read instead of
-        # reading back other numbers, while an edit made through HDF5 keeps them right
-        with h5py.File(tmp, "w", libver=("v108", "latest")) as h:
-            h.attrs["schema"] = SCHEMA
-            h.attrs["vidtrack_version"] = __version__
-            h.attrs["scene_hash"] = str(scene_hash or "")
-            h.attrs["calibration"] = _json(calibration)
-            h.attrs["flags"] = _json({str(k): v for k, v in FLAGS.items()})
-            h.attrs["views"] = _json(_view_order(tracks))
-            h.attrs["views_sha256"] = views_digest(tracks)
-            for v in _view_order(tracks):
-                tr = tracks[v]
-                g = h.create_group(v)
-                d = tr.data
-                _dataset(g, "frame", d["frame"].to_numpy(dtype=np.int64))
-                for c in _FLOAT_COLS:
+    import io
+
+    buffer = io.BytesIO()
+    # the HDF5 1.8 layout (object headers with checksums) and a Fletcher-32 checksum
+    # on the datasets (_dataset): a file damaged on disk fails to read instead of
+    # reading back other numbers, while an edit made through HDF5 keeps them right.
+    # Built in memory and written by Python: a full disk is then an OSError here,
+    # not an error inside HDF5's own writes (which h5py cannot close cleanly).
+    with h5py.File(buffer, "w", libver=("v108", "latest")) as h:
+        h.attrs["schema"] = SCHEMA
+        h.attrs["vidtrack_version"] = __version__
+        h.attrs["scene_hash"] = str(scene_hash or "")
+        h.attrs["calibration"] = _json(calibration)
+        h.attrs["flags"] = _json({str(k): v for k, v in FLAGS.items()})
+        h.attrs["views"] = _json(_view_order(tracks))
+        h.attrs["views_sha256"] = views_digest(tracks)
+        for v in _view_order(tracks):
+            tr = tracks[v]
+            g = h.create_group(v)
+            d = tr.data
+            _dataset(g, "frame", d["frame"].to_numpy(dtype=np.int64))
+            for c in _FLOAT_COLS:
+                _dataset(g, c, d[c].to_numpy(dtype=np.float64))
+            _dataset(g, "flags", d["flags"].to_numpy(dtype=np.int32))
+            if _MANUAL in d:
+                # points placed by hand (flags 0): only a view that has them
+                _dataset(g, _MANUAL, d[_MANUAL].to_numpy(dtype=np.uint8))
+            for c in CAMERA_COLUMNS:
+                if c in d:
+                    # a shaking camera's shift (a steadied view only)
                     _dataset(g, c, d[c].to_numpy(dtype=np.float64))
-                _dataset(g, "flags", d["flags"].to_numpy(dtype=np.int32))
-                if _MANUAL in d:
-                    # points placed by hand (flags 0): only a view that has them
-                    _dataset(g, _MANUAL, d[_MANUAL].to_numpy(dtype=np.uint8))
-                for c in CAMERA_COLUMNS:
-                    if c in d:
-                        # a shaking camera's shift (a steadied view only)
-                        _dataset(g, c, d[c].to_numpy(dtype=np.float64))
-                g.attrs["release_frame"] = -1 if tr.release_frame is None else int(
-                    tr.release_frame)
-                g.attrs["release_t_s"] = _num(tr.release_t_s)
-                g.attrs["release_note"] = str(tr.release_note)
-                g.attrs["fps"] = _num(tr.fps)
-                g.attrs["frame_shape"] = np.asarray(tr.frame_shape, dtype=np.int64)
-                g.attrs["noise_sigma"] = float(tr.noise_sigma)
-                g.attrs["k_sigma"] = float(tr.k_sigma)
-                g.attrs["straw_level"] = float(tr.straw_level)
-                g.attrs["scatter_px"] = float(tr.scatter_px)
-                g.attrs["notes"] = _json(list(tr.notes))
-            if world is not None:
-                g = h.create_group("world")
-                for c in _WORLD_COLS:
-                    _dataset(g, c, world.data[c].to_numpy(dtype=np.float64))
-                if calibrated:
-                    # the triangulation's columns (frame, views, flags, reprojection_px_*,
-                    # X_m..Z_m in the calibration's frame) and its summary
-                    for c in world.data.columns:
-                        if c not in _WORLD_COLS:
-                            g.create_dataset(c, data=world.data[c].to_numpy())
-                    g.attrs["kind"] = "calibrated"
-                    g.attrs["columns"] = _json(list(world.data.columns))
-                    g.attrs["summary"] = _json(world.to_dict())
-                else:
-                    g.attrs["kind"] = "orthogonal"
-                    g.attrs["reference"] = str(world.reference)
-                    g.attrs["t0_s"] = _json(world.t0_s)
-                    g.attrs["sync"] = _json(world.sync)
-                    g.attrs["x_rms_m"] = _num(world.x_rms_m)
-                    g.attrs["x_rms_px"] = _num(world.x_rms_px)
-                    g.attrs["x_points"] = int(world.x_points)
-                    g.attrs["warnings"] = _json(list(world.warnings))
+            g.attrs["release_frame"] = -1 if tr.release_frame is None else int(
+                tr.release_frame)
+            g.attrs["release_t_s"] = _num(tr.release_t_s)
+            g.attrs["release_note"] = str(tr.release_note)
+            g.attrs["fps"] = _num(tr.fps)
+            g.attrs["frame_shape"] = np.asarray(tr.frame_shape, dtype=np.int64)
+            g.attrs["noise_sigma"] = float(tr.noise_sigma)
+            g.attrs["k_sigma"] = float(tr.k_sigma)
+            g.attrs["straw_level"] = float(tr.straw_level)
+            g.attrs["scatter_px"] = float(tr.scatter_px)
+            g.attrs["notes"] = _json(list(tr.notes))
+        if world is not None:
+            g = h.create_group("world")
+            for c in _WORLD_COLS:
+                _dataset(g, c, world.data[c].to_numpy(dtype=np.float64))
+            if calibrated:
+                # the triangulation's columns (frame, views, flags, reprojection_px_*,
+                # X_m..Z_m in the calibration's frame) and its summary
+                for c in world.data.columns:
+                    if c not in _WORLD_COLS:
+                        g.create_dataset(c, data=world.data[c].to_numpy())
+                g.attrs["kind"] = "calibrated"
+                g.attrs["columns"] = _json(list(world.data.columns))
+                g.attrs["summary"] = _json(world.to_dict())
+            else:
+                g.attrs["kind"] = "orthogonal"
+                g.attrs["reference"] = str(world.reference)
+                g.attrs["t0_s"] = _json(world.t0_s)
+                g.attrs["sync"] = _json(world.sync)
+                g.attrs["x_rms_m"] = _num(world.x_rms_m)
+                g.attrs["x_rms_px"] = _num(world.x_rms_px)
+                g.attrs["x_points"] = int(world.x_points)
+                g.attrs["warnings"] = _json(list(world.warnings))
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(buffer.getvalue())
     return path
 
 

@@ -15,10 +15,17 @@ import difflib
 import hashlib
 import json
 import math
+import re
 import tomllib
 from pathlib import Path
 
 from vidtrack.errors import SceneError
+
+
+#: Largest image coordinate (px) a scene may give: an origin, a ruler's end, a target
+#: or a manual point. Beyond it squares and products overflow float64's reach in the
+#: geometry; no camera has a frame a million pixels wide.
+MAX_ABS_PX = 1e6
 
 
 def _show(value):
@@ -121,6 +128,9 @@ class _Checker:
             self.fail(path, f"must be two numbers {what}, got {_show(value)}")
         if not all(math.isfinite(v) for v in value):
             self.fail(path, f"must be two finite numbers {what}, got {_show(value)}")
+        if any(abs(v) > MAX_ABS_PX for v in value):
+            self.fail(path, f"must be within +-{MAX_ABS_PX:g} px (an image position; "
+                      f"larger ones overflow the geometry), got {_show(value)}")
         return (float(value[0]), float(value[1]))
 
 
@@ -139,7 +149,43 @@ def _read_toml(path):
     except UnicodeDecodeError as exc:
         raise SceneError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{path}: not valid TOML: {exc}") from None
+        raise SceneError(f"{path}: {_toml_problem(raw.decode('utf-8'), exc)}") from None
+
+
+def _toml_problem(text, exc):
+    """What a TOMLDecodeError means, naming the key or table given twice."""
+    message = str(exc)
+    at = re.search(r"\(at line (\d+), column \d+\)", message)
+    line = int(at.group(1)) if at else None
+    if line is not None and "Cannot overwrite a value" in message:
+        key = _key_at(text, line)
+        if key:
+            return (f"{key} is given twice (line {line}); expected each key once "
+                    "(TOML does not allow a key twice in a table)")
+    twice = re.search(r"Cannot declare \(([^)]*)\) twice", message)
+    if twice and line is not None:
+        name = ".".join(re.findall(r"'([^']*)'", twice.group(1)))
+        return (f"the table [{name}] is declared twice (line {line}); expected each table "
+                "once (put its keys together)")
+    return f"not valid TOML: {message}"
+
+
+def _key_at(text, line):
+    """The full dotted name of the key set on 1-based ``line`` (its table's name first)."""
+    lines = text.splitlines()
+    if not 0 < line <= len(lines):
+        return None
+    m = re.match(r"\s*([A-Za-z0-9_\-.\"' ]+?)\s*=", lines[line - 1])
+    if not m:
+        return None
+    table = ""
+    for previous in reversed(lines[:line - 1]):
+        head = re.match(r"\s*\[+\s*([^\]]+?)\s*\]+", previous)
+        if head:
+            table = head.group(1)
+            break
+    key = m.group(1).strip()
+    return f"{table}.{key}" if table else key
 
 
 def _canonical_hash(obj):

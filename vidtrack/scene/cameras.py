@@ -30,7 +30,12 @@ from vidtrack.scene.corrections import corrections_to_dict
 from vidtrack.scene.model import CHANNELS, channel_to_dict
 
 __all__ = ["WorldSpec", "CameraView", "CAMERA_VIEW_KEYS", "POINT_FORMATS", "parse_world",
-           "parse_camera_view"]
+           "parse_camera_view", "check_parallax", "MIN_BASELINE_RATIO"]
+
+#: Smallest distance between two cameras' centres, as a fraction of their distance from
+#: the calibration frame's origin (in the calibrated volume), that triangulates: below
+#: it the rays of the two cameras are parallel within 0.06 degrees (no parallax).
+MIN_BASELINE_RATIO = 1e-3
 
 #: Formats of points files: DLTdv's xypts CSV, Tracker's data table, frame,u_px,v_px.
 POINT_FORMATS = ("dltdv", "tracker", "csv")
@@ -322,3 +327,40 @@ def parse_camera_view(ck, name, view, folder, *, fps_range, frames_and_sync):
                       sync_frame=sync, calibration=calib, channel=channel, target=target,
                       exclude_frames=exclude, manual_points=manual,
                       manual_points_text=manual_text)
+
+
+def check_parallax(ck, views):
+    """Refuse two calibrated views whose cameras stand in one place (no parallax).
+
+    Two cameras with the same centre see every point along the same ray: nothing can
+    be triangulated (a DLT copied from one view to another does this). The centres are
+    compared relative to their distance from the calibration frame's origin
+    (:data:`MIN_BASELINE_RATIO`).
+
+    Parameters
+    ----------
+    ck : vidtrack.scene._check._Checker
+    views : dict of str to CameraView
+
+    Raises
+    ------
+    SceneError
+        Naming both views, their centres and what was expected.
+    """
+    import numpy as np
+
+    names = list(views)
+    for j, b in enumerate(names):
+        for a in names[:j]:
+            ca, cb = views[a].camera.centre, views[b].camera.centre
+            if not (np.all(np.isfinite(ca)) and np.all(np.isfinite(cb))):
+                continue        # a camera at infinity (affine) has no centre to compare
+            reach = max(float(np.linalg.norm(ca)), float(np.linalg.norm(cb)), 1e-12)
+            baseline = float(np.linalg.norm(ca - cb))
+            if baseline < MIN_BASELINE_RATIO * reach:
+                where = ", ".join(f"{v:.4g}" for v in cb)
+                ck.fail(f"views.{b}", f"has its camera centre where views.{a} has its "
+                        f"([{where}], {baseline:.3g} apart, {reach:.3g} from the "
+                        "calibration origin): no parallax, nothing can be triangulated "
+                        "(a camera model copied from one view to the other?); expected "
+                        "cameras at different places, each with its own calibration")

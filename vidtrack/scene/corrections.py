@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from vidtrack.errors import SceneError
-from vidtrack.scene._check import _show, _type_name
+from vidtrack.scene._check import MAX_ABS_PX, _show, _type_name
 
 __all__ = ["ManualPoints", "MANUAL_COLUMNS", "parse_target", "parse_exclude",
            "parse_manual_points", "read_manual_points", "manual_points_file",
@@ -259,6 +259,9 @@ def read_manual_points(path, *, label, key, text=None):
             if not math.isfinite(value):
                 _fail(label, key, f"{where} {c} must be a finite number (pixels), "
                       f"got {cell!r}")
+            if abs(value) > MAX_ABS_PX:
+                _fail(label, key, f"{where} {c} must be within +-{MAX_ABS_PX:g} px (an "
+                      f"image position), got {cell!r}")
             px.append(value)
         frames.append(frame)
         us.append(px[0])

@@ -7,13 +7,15 @@ The analysis over the runs is :mod:`vidtrack.experiment`.
 """
 
 import dataclasses
+import errno
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from vidtrack.errors import SceneError
 from vidtrack.scene._check import _canonical_hash, _Checker, _read_toml, _show
 from vidtrack.scene.folders import _natural_key
-from vidtrack.scene.model import SCENE_FILE, SCHEMA
+from vidtrack.scene.model import MAX_ABS_FACTOR, SCENE_FILE, SCHEMA
 
 EXPERIMENT_FILE = "experiment.toml"
 
@@ -77,9 +79,19 @@ class Experiment:
         Raises
         ------
         SceneError
-            The glob matches no folder, or a matched folder has no scene.toml.
+            The glob matches no folder, a link that leads nowhere (dangling or a loop),
+            or a matched folder has no scene.toml.
         """
-        found = sorted((p for p in self.folder.glob(self.runs) if p.is_dir()),
+        matched = list(self.folder.glob(self.runs))
+        for p in matched:
+            if p.is_symlink() and not p.exists():
+                target = os.readlink(p)
+                why = ("which leads back to itself (a loop)" if _loops(p) else
+                       "which does not exist")
+                raise SceneError(f"{self.path}: runs = {self.runs!r} matches {p}, a link to "
+                                 f"{target}, {why}; expected every run folder there to be "
+                                 "a folder (or a link to one)")
+        found = sorted((p for p in matched if p.is_dir()),
                        key=lambda p: _natural_key(str(p.relative_to(self.folder))))
         if not found:
             raise SceneError(f"{self.path}: runs = {self.runs!r} matches no run folder "
@@ -95,6 +107,16 @@ class Experiment:
         return {"schema": SCHEMA, "design": self.design, "responses": list(self.responses),
                 "runs": self.runs,
                 "factors": {k: f.to_dict() for k, f in self.factors.items()}}
+
+
+def _loops(path):
+    try:
+        Path(path).resolve(strict=True)
+    except RuntimeError:
+        return True
+    except OSError as exc:
+        return exc.errno == errno.ELOOP
+    return False
 
 
 def load_experiment(exp_dir):
@@ -164,8 +186,10 @@ def load_experiment(exp_dir):
         need = design == "ccd"
         factors[letter] = Factor(
             letter=letter, name=ck.string(f, "name", f"{fp}.name", required=True),
-            centre=ck.number(f, "centre", f"{fp}.centre", required=need),
-            step=ck.number(f, "step", f"{fp}.step", required=need, gt=0))
+            centre=ck.number(f, "centre", f"{fp}.centre", required=need,
+                             within=(-MAX_ABS_FACTOR, MAX_ABS_FACTOR, "(natural units)")),
+            step=ck.number(f, "step", f"{fp}.step", required=need, gt=0,
+                           within=(1 / MAX_ABS_FACTOR, MAX_ABS_FACTOR, "(natural units)")))
     if design == "ccd" and not factors:
         ck.fail("factors", "must name at least one factor for a ccd design")
     names = [f.name for f in factors.values()]

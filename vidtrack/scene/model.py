@@ -14,6 +14,7 @@ the keys a file may have.
 """
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -37,6 +38,25 @@ FPS_RANGE = (0.1, 1e7)
 #: Camera distances accepted (``camera_distance_m``), m: a camera nearer than 1 cm or
 #: farther than 100 km from the throw is a typo.
 CAMERA_DISTANCE_RANGE_M = (0.01, 1e5)
+#: Physical ranges of the other numbers of a scene; outside them a value is a typo
+#: (1e308, 1e-300) that would overflow or divide by zero downstream.
+#: Gravity, m/s^2 (the Moon 1.6, the Earth 9.8; a centrifuge is not a throw).
+GRAVITY_RANGE_M_S2 = (0.01, 1000.0)
+#: Air density, kg/m^3 (0: no drag from the air; air at sea level 1.2).
+AIR_DENSITY_RANGE_KG_M3 = (0.0, 100.0)
+#: The machine's travel speed, km/h (as ``vidtrack predict``).
+SPEED_RANGE_KMH = (0.0, 100.0)
+#: The straw's mass (kg), area (m^2) and drag coefficient.
+MASS_RANGE_KG = (1e-9, 1e3)
+AREA_RANGE_M2 = (1e-9, 1e3)
+DRAG_COEFFICIENT_RANGE = (0.0, 100.0)
+#: Largest drag parameter Cp, s/m (a straw: about 0.1; as ``vidtrack synth``).
+CP_MAX_S_PER_M = 10.0
+#: A calibrated view's name (it names files, overlay_<view>.mp4, and table columns):
+#: no path separators, dots or spreadsheet formula characters.
+VIEW_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}")
+#: Largest magnitude of a factor's value in natural units (as the ANOVA's bound).
+MAX_ABS_FACTOR = 1e12
 #: What a view's ``channel`` may be: the grey image the tracker sees (BT.601 luma, one
 #: colour channel, the chroma ``max(R, G, B) - min(R, G, B)``, or ``"auto"``: the one of
 #: luma, red, green and blue in which moving things stand out most).

@@ -21,7 +21,7 @@ from calibration.errors import InputError
 from calibration.scale import M_PER_PX_RANGE
 from calibration.views import parse_axes
 from vidtrack.errors import SceneError
-from vidtrack.scene.cameras import parse_camera_view, parse_world
+from vidtrack.scene.cameras import check_parallax, parse_camera_view, parse_world
 from vidtrack.scene.corrections import parse_exclude, parse_manual_points, parse_target
 from vidtrack.scene._check import (
     _canonical_hash,
@@ -35,14 +35,23 @@ from vidtrack.scene.model import (
     _TOP_KEYS,
     _VIEW_KEYS,
     AIR_DENSITY_KG_M3,
+    AIR_DENSITY_RANGE_KG_M3,
+    AREA_RANGE_M2,
     CAMERA_DISTANCE_RANGE_M,
     CHANNELS,
+    CP_MAX_S_PER_M,
     CP_TOLERANCE,
+    DRAG_COEFFICIENT_RANGE,
     FPS_RANGE,
     GRAVITY_M_S2,
+    GRAVITY_RANGE_M_S2,
+    MASS_RANGE_KG,
+    MAX_ABS_FACTOR,
     SCENE_FILE,
     SCHEMA,
+    SPEED_RANGE_KMH,
     VIEW_AXES,
+    VIEW_NAME,
     Physics,
     Ruler,
     Scene,
@@ -62,6 +71,9 @@ def _parse_factors(ck, data):
                     f"{_type_name(value)} {_show(value)}")
         if isinstance(value, float) and not math.isfinite(value):
             ck.fail(f"factors.{key}", f"must be a finite number, got {value}")
+        if isinstance(value, (int, float)) and abs(value) > MAX_ABS_FACTOR:
+            ck.fail(f"factors.{key}", f"must be within +-{MAX_ABS_FACTOR:g} (a setting in "
+                    f"natural units; larger ones overflow the analysis), got {value:g}")
         out[key] = value
     return out
 
@@ -73,13 +85,22 @@ def _parse_straw(ck, data, physics):
                      air_density_kg_m3=physics.air_density_kg_m3)
     ck.keys(table, ("mass_kg", "area_m2", "drag_coefficient", "cp_s_per_m"), "straw")
     straw = Straw(
-        mass_kg=ck.number(table, "mass_kg", "straw.mass_kg", gt=0),
-        area_m2=ck.number(table, "area_m2", "straw.area_m2", gt=0),
-        drag_coefficient=ck.number(table, "drag_coefficient", "straw.drag_coefficient", ge=0),
+        mass_kg=ck.number(table, "mass_kg", "straw.mass_kg", gt=0,
+                          within=(*MASS_RANGE_KG, "kg")),
+        area_m2=ck.number(table, "area_m2", "straw.area_m2", gt=0,
+                          within=(*AREA_RANGE_M2, "m^2")),
+        drag_coefficient=ck.number(table, "drag_coefficient", "straw.drag_coefficient", ge=0,
+                                   within=(*DRAG_COEFFICIENT_RANGE, "(dimensionless)")),
         cp_given_s_per_m=ck.number(table, "cp_s_per_m", "straw.cp_s_per_m", ge=0),
         gravity_m_s2=physics.gravity_m_s2, air_density_kg_m3=physics.air_density_kg_m3,
     )
     given, computed = straw.cp_given_s_per_m, straw.cp_computed_s_per_m
+    for cp, key in ((given, "straw.cp_s_per_m"), (computed, "straw.mass_kg")):
+        if cp is not None and not cp <= CP_MAX_S_PER_M:
+            how = ("" if key == "straw.cp_s_per_m" else " (Cp = sqrt(C a_s rho / (2 m g)) "
+                   "from straw.mass_kg, straw.area_m2, straw.drag_coefficient and [physics])")
+            ck.fail(key, f"gives Cp = {cp:.4g} s/m{how}; expected Cp <= {CP_MAX_S_PER_M:g} "
+                    "s/m (a straw: about 0.1)")
     if given is not None and computed is not None:
         ref = max(given, computed)
         if ref > 0 and abs(given - computed) > CP_TOLERANCE * ref:
@@ -281,18 +302,22 @@ def parse_scene(data, *, folder, label=SCENE_FILE, path=None):
     ck.keys(phys, ("gravity_m_s2", "air_density_kg_m3"), "physics")
     physics = Physics(
         gravity_m_s2=ck.number(phys, "gravity_m_s2", "physics.gravity_m_s2",
-                               default=GRAVITY_M_S2, gt=0),
+                               default=GRAVITY_M_S2, gt=0,
+                               within=(*GRAVITY_RANGE_M_S2, "m/s^2")),
         air_density_kg_m3=ck.number(phys, "air_density_kg_m3", "physics.air_density_kg_m3",
-                                    default=AIR_DENSITY_KG_M3, ge=0),
+                                    default=AIR_DENSITY_KG_M3, ge=0,
+                                    within=(*AIR_DENSITY_RANGE_KG_M3, "kg/m^3")),
     )
     straw = _parse_straw(ck, data, physics)
 
     machine = ck.table(data, "machine", "machine") or {}
     ck.keys(machine, ("speed_kmh",), "machine")
-    speed = ck.number(machine, "speed_kmh", "machine.speed_kmh", ge=0)
+    speed = ck.number(machine, "speed_kmh", "machine.speed_kmh", ge=0,
+                      within=(*SPEED_RANGE_KMH, "km/h"))
     speed_from = "machine"
     if speed is None and "speed_kmh" in factors:
-        speed = ck.number(factors, "speed_kmh", "factors.speed_kmh", ge=0)
+        speed = ck.number(factors, "speed_kmh", "factors.speed_kmh", ge=0,
+                          within=(*SPEED_RANGE_KMH, "km/h"))
         speed_from = "factors"
     if speed is None:
         speed, speed_from = 0.0, "default"
@@ -311,9 +336,15 @@ def parse_scene(data, *, folder, label=SCENE_FILE, path=None):
         if len(views_table) < 2:
             ck.fail("views", "calibrated cameras need two or more views (one view cannot "
                     f"place a point in 3-D), got {len(views_table)}")
+        for name in views_table:
+            if not VIEW_NAME.fullmatch(name):
+                ck.fail(f"views.{_show(name)}", "is not a usable view name: it names output "
+                        "files (overlay_<view>.mp4) and columns; expected a letter or digit "
+                        "then letters, digits, _ or - (at most 64), e.g. cam1")
         views = {name: parse_camera_view(ck, name, view, folder, fps_range=FPS_RANGE,
                                          frames_and_sync=_frames_and_sync)
                  for name, view in views_table.items()}
+        check_parallax(ck, views)
     for name in (views_table if world is None else ()):
         if name not in VIEW_AXES:
             near = difflib.get_close_matches(name, list(VIEW_AXES), n=1)

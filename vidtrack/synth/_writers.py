@@ -18,7 +18,7 @@ def _source_name(spec, view):
 def _write_avi(path, renderer, n, spec, tick):
     import cv2
 
-    from vidtrack._atomic import atomic_path
+    from vidtrack._atomic import atomic_path, check_video_written
 
     w, h = renderer.view.width, renderer.view.height
     with atomic_path(path) as tmp:
@@ -49,6 +49,7 @@ def _write_avi(path, renderer, n, spec, tick):
                     tick()
             finally:
                 writer.release()
+            check_video_written(video, n, path)
             os.replace(video, tmp)
         finally:
             if video.exists():

@@ -17,7 +17,9 @@ Everything is rendered and written frame by frame; memory does not grow with the
 number of frames.
 """
 
+import logging
 import os
+import re
 import shutil
 import tempfile
 import time
@@ -25,6 +27,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from vidtrack.errors import DiskFullError
 
 from vidtrack.synth._renderer import _ViewRenderer, _ViewTrack
 from vidtrack.synth._views import _frame_times, _frame_view, _static_image
@@ -35,6 +39,8 @@ from vidtrack.synth.truth import (_CONVENTIONS, TRUTH_FILE, TRUTH_SCHEMA, _relea
                                   _throw_truth, _truth_text, _view_truth)
 
 __all__ = ["SynthRun", "render_run"]
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -178,8 +184,42 @@ def _marker_text(names):
             f'created = "{when}"\nfiles = [{listed}]\n')
 
 
+#: Name of synth's staging folder in OUT: ``.synth-<pid>-<random>.part`` (the pid of the
+#: process rendering into it). Older vidtracks wrote ``.synth-<random>.part``.
+_STAGE_PREFIX, _STAGE_SUFFIX = ".synth-", ".part"
+_STAGE_NAME = re.compile(r"\.synth-(?:(\d+)-)?[a-z0-9_]{8}\.part")
+
+
+def _alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
+
+
+def _leftovers(out_dir):
+    """The staging folders in ``out_dir`` that an interrupted synth left behind.
+
+    A staging folder is synth's own by its name (:data:`_STAGE_NAME`); one whose process
+    is still running (the pid in its name) is another render's and is not a leftover.
+    """
+    out = []
+    for p in out_dir.iterdir():
+        m = _STAGE_NAME.fullmatch(p.name)
+        if m and p.is_dir() and not p.is_symlink() and not (m.group(1) and
+                                                            _alive(int(m.group(1)))):
+            out.append(p)
+    return out
+
+
 def _check_out(out_dir, force):
     """Refuse an output folder synth must not write into; the entries it may replace.
+
+    The staging folder of an interrupted render (killed, power cut) is not counted:
+    it is removed before the new render starts (:func:`_leftovers`).
 
     Returns the set of top-level names a previous synthetic run left (from its marker),
     empty for a new or empty folder.
@@ -189,7 +229,8 @@ def _check_out(out_dir, force):
     check_output(out_dir, folder=True)
     if not out_dir.is_dir():
         return set()
-    present = sorted(p.name for p in out_dir.iterdir())
+    stale = {p.name for p in _leftovers(out_dir)}
+    present = sorted(p.name for p in out_dir.iterdir() if p.name not in stale)
     if not present:
         return set()
     shown = ", ".join(present[:5]) + (", ..." if len(present) > 5 else "")
@@ -310,7 +351,11 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
 
     created = not out_dir.exists()
     out_dir.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=".synth-", suffix=".part", dir=out_dir))
+    for leftover in _leftovers(out_dir):
+        log.info("%s: removing the staging folder of an interrupted render", leftover)
+        shutil.rmtree(leftover, ignore_errors=True)
+    stage = Path(tempfile.mkdtemp(prefix=f"{_STAGE_PREFIX}{os.getpid()}-",
+                                  suffix=_STAGE_SUFFIX, dir=out_dir))
     bar = progress(total=n * len(views) * len(throws), desc="synth", quiet=quiet,
                    unit="frame")
     from vidtrack import __version__
@@ -370,6 +415,9 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
         write_text(stage / TRUTH_FILE, _truth_text(root_truth))
         write_scene(stage, _scene_dict(spec, views, run_name, release))
         names = sorted(p.name for p in stage.iterdir())
+        # the marker first, listing the old entries and the new: an interruption while
+        # they are swapped leaves a folder that 'synth --force' may replace
+        write_text(out_dir / MARKER_FILE, _marker_text(set(names) | set(previous)))
         for name in sorted(_replaceable(names, previous)):
             _remove(out_dir / name)
         for name in names:
@@ -377,10 +425,12 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
         write_text(out_dir / MARKER_FILE, _marker_text(names))
         names.append(MARKER_FILE)
         stage.rmdir()
-    except BaseException:
+    except BaseException as exc:
         shutil.rmtree(stage, ignore_errors=True)
         if created:
             shutil.rmtree(out_dir, ignore_errors=True)
+        if isinstance(exc, DiskFullError):      # named as the file it would have been
+            raise DiskFullError(str(exc).replace(str(stage), str(out_dir))) from exc
         raise
     finally:
         bar.close()

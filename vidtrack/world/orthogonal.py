@@ -15,7 +15,9 @@ X, which is how they are put on one clock and checked against each other:
    fraction of a frame. X must change by at least 5 pixels over the overlap.
 3. **The check.** On the common clock the RMS difference of the two X measurements is
    reported (m and px); a warning is recorded when it exceeds the coarser view's pixel
-   scale: the views disagree (scale, origin or sync).
+   scale: the views disagree (scale, origin or sync). A view whose own axis (y, z)
+   covers less than half of the world track's time span is noted (on stderr too): what
+   is fitted on it rests on that part of the flight.
 4. **Before t = 0.** Every view's frames before its t = 0 (less 0.2 frame, the
    tracker's rule for the release frame) are flagged PRE_RELEASE, and only they: a view
    whose release was not identifiable on its own (the ``top`` view, which sees the
@@ -53,6 +55,9 @@ __all__ = ["WorldTrack", "merge_tracks", "view_world", "WORLD_COLUMNS"]
 
 #: Columns of :attr:`WorldTrack.data`.
 WORLD_COLUMNS = ("t_s", "x_m", "y_m", "z_m")
+#: Fraction of the world track's time span under which a view's own axis is noted as
+#: covering only part of the flight (:func:`_coverage_notes`).
+COVERAGE_NOTE_FRACTION = 0.5
 #: Most passes of finding an offset again on the perspective-corrected shared X.
 _RESYNC_PASSES = 4
 _AXES = ("x", "y", "z")
@@ -356,6 +361,9 @@ def merge_tracks(tracks, mappings, *, sync=None, min_overlap=10):
         else:
             warnings.append("the views have no usable points at common times: X not checked")
     data = _world_rows(merged, world, t0, ref, names, steps)
+    for note in _coverage_notes(data, names):
+        warnings.append(note)
+        log.warning("world track: %s", note, extra={"label": "note"})
     log.info("world track: %d rows from %s (reference %s; t = 0 by %s)", len(data),
              ", ".join(names), ref, ", ".join(f"{n}: {h}" for n, h in how.items()))
     for w in warnings:
@@ -364,6 +372,32 @@ def merge_tracks(tracks, mappings, *, sync=None, min_overlap=10):
     return WorldTrack(data=data, t0_s=t0, sync=how, reference=ref, x_rms_m=x_rms_m,
                       x_rms_px=x_rms_px, x_points=x_points, warnings=tuple(warnings),
                       tracks=merged)
+
+
+def _coverage_notes(data, names):
+    """A note for each view whose own axis (y: front, z: top) covers less than
+    :data:`COVERAGE_NOTE_FRACTION` of the world track's time span: the coefficients
+    fitted on that axis rest on that part of the flight only (a cut or shifted footage,
+    a straw lost), which widens their interval without any other sign."""
+    out = []
+    if len(names) < 2 or not len(data):
+        return out
+    t = data["t_s"].to_numpy()
+    span = float(t[-1] - t[0])
+    if span <= 0:
+        return out
+    for view, axis, ks in (("front", "y", "k1, k2"), ("top", "z", "k3, k4")):
+        ok = np.isfinite(data[f"{axis}_m"].to_numpy())
+        if view not in names or not ok.any():
+            continue
+        a, b = float(t[ok][0]), float(t[ok][-1])
+        if b - a < COVERAGE_NOTE_FRACTION * span:
+            out.append(f"view {view} measures {axis} over t = {a:.4g}..{b:.4g} s only "
+                       f"({int(ok.sum())} of {len(t)} rows, {100 * (b - a) / span:.0f} % of "
+                       f"the flight's {span:.4g} s): the coefficients fitted on {axis} "
+                       f"({ks} with the other axes) rest on that part; check that view's "
+                       "footage (cut or shifted?) and its track (vidtrack overlay)")
+    return out
 
 
 def _flag_before_t0(track, t0, how, step, *, ref, ref_how):
