@@ -4,6 +4,8 @@ detections of a throw beside things that do not fly), and the whole on real foot
 one here made (the launcher's ball beside its shadow, against a reference made without
 vidtrack)."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -14,11 +16,13 @@ from vidtrack.track.link import link
 from vidtrack.track.path import local_quadratic
 from vidtrack.track.settings import TrackerSettings
 
+REPO = Path(__file__).resolve().parents[1]
+
 
 # ------------------------------------------------------------------ settings
 def test_settings_refuse_unknown_names_and_bad_values():
     assert TrackerSettings.from_mapping({"k_sigma": 6}).k_sigma == 6
-    with pytest.raises(VidtrackError, match="unknown setting 'k_sgima'"):
+    with pytest.raises(VidtrackError, match="track.k_sgima is not a setting"):
         TrackerSettings.from_mapping({"k_sgima": 6})
     for bad in ({"k_sigma": 0}, {"k_sigma": float("nan")}, {"min_area_px": 2.5},
                 {"k_grow": 9.0}, {"shadow_ratio_min": 1.0}, {"max_gap": True}):
@@ -158,3 +162,57 @@ def test_launcher_ball_beside_its_shadow(real_footage):
     # the shadow, 10 px away, is never followed; the frames where the ball's blob joins
     # its shadow's (259-263, leaving the launcher) are flagged, not kept
     assert err[ok].max() < 3.0
+
+
+# ------------------------------------------------------------------ the switch
+def _run42_with(tmp_path, track_table):
+    import shutil
+
+    run = tmp_path / "run42"
+    shutil.copytree(REPO / "datasets" / "run42", run,
+                    ignore=shutil.ignore_patterns("vidtrack"))
+    scene = run / "scene.toml"
+    scene.write_text(scene.read_text().replace("[views.front]\n",
+                                               f"[track]\n{track_table}\n\n[views.front]\n", 1))
+    return run
+
+
+def test_scene_track_table_is_checked(tmp_path, vidtrack_cli):
+    for table, said in (('engine = "fast"', "track.engine must be one of"),
+                        ('engine = "flight"\nk_sgima = 4', "track.k_sgima is not a setting"),
+                        ('k_sigma = 4', "give engine = \"flight\" with it"),
+                        ('engine = "flight"\nk_sigma = -1', "track.k_sigma must be")):
+        run = _run42_with(tmp_path / str(abs(hash(table))), table)
+        res = vidtrack_cli("fit", run)
+        assert res.returncode == 2, res.stderr
+        assert said in res.stderr and len(res.stderr.strip().splitlines()) == 1, res.stderr
+        assert not (run / "vidtrack").exists()
+
+
+def test_run42_fitted_with_the_flight_tracker(tmp_path, vidtrack_cli):
+    """The sample run with ``[track] engine = "flight"``: the fit's k1..k4 within the
+    suite's tolerances of the truth it was rendered from (measured: 2.193, 2.502, 4.598,
+    21.28 against 2.2, 2.5, 4.6, 21.3), and the tracks keyed on the engine: the rules
+    tracker's tracks of the same run are not reused."""
+    import json
+
+    from conftest import assert_k_within
+
+    run = _run42_with(tmp_path, 'engine = "flight"')
+    res = vidtrack_cli("fit", run, "--json")
+    assert res.returncode == 0, res.stderr
+    truth = json.loads((run / "truth.json").read_text())["truth"]
+    record = json.loads(res.stdout)
+    record = record[0] if isinstance(record, list) else record
+    got = assert_k_within(record, truth["k"])
+    print("\nrun42 with the flight tracker: " + ", ".join(
+        f"{k} {c['value']:.4g} (truth {truth['k'][k]:.4g})" for k, c in got.items()))
+    # the same folder with the rules tracker: tracked again, not the flight's tracks reused
+    scene = run / "scene.toml"
+    scene.write_text(scene.read_text().replace('engine = "flight"', 'engine = "rules"'))
+    again = vidtrack_cli("fit", run, "--json")
+    assert again.returncode == 0, again.stderr
+    assert "reus" not in again.stderr.lower()
+    rules = json.loads(again.stdout)
+    rules = rules[0] if isinstance(rules, list) else rules
+    assert rules["coefficients"]["k1"]["value"] != record["coefficients"]["k1"]["value"]

@@ -31,6 +31,18 @@ def source_of(view, scene, folder):
     return view.source if Path(folder) == scene.folder else view.source_in(folder)
 
 
+def tracker_options(scene):
+    """The scene's ``[track]`` table as :func:`vidtrack.track.tracker.track`'s keywords:
+    ``engine`` and, for the flight tracker, its ``settings``."""
+    table = dict(getattr(scene, "track", None) or {})
+    engine = table.pop("engine", "rules")
+    if engine != "flight":
+        return {}
+    from vidtrack.track.settings import TrackerSettings
+
+    return {"engine": engine, "settings": TrackerSettings.from_mapping(table)}
+
+
 def track_view(scene, folder, name, settings, *, quiet=True, cancel=None, parts=False):
     """Track view ``name`` of ``scene`` in ``folder`` with the tracker ``settings``.
 
@@ -47,7 +59,7 @@ def track_view(scene, folder, name, settings, *, quiet=True, cancel=None, parts=
                      channel=view.channel) as src:
         out = (track_parts if parts else track)(src, view=name, quiet=quiet, cancel=cancel,
                                                 target=getattr(view, "target", None),
-                                                **settings)
+                                                **settings, **tracker_options(scene))
         said = tuple(n for n in src.notes if n.startswith("channel "))
     if not said:
         return out

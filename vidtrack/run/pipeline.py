@@ -206,7 +206,7 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
     # CSV tracks again
     key = stage_key("tracks", algorithm={"tracker": tracker_version(),
                                          "world": WORLD_ALGORITHM},
-                    settings={"tracker": TRACKER_SETTINGS},
+                    settings={"tracker": TRACKER_SETTINGS, "track": scene.track},
                     inputs={"scene": scene.hash,
                             "sources": {n: _file_fingerprint(source_of(v, scene, folder))
                                         for n, v in scene.views.items()},

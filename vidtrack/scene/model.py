@@ -62,7 +62,8 @@ MAX_ABS_FACTOR = 1e12
 #: luma, red, green and blue in which moving things stand out most).
 CHANNELS = ("luma", "red", "green", "blue", "chroma", "auto")
 
-_TOP_KEYS = ("schema", "run", "factors", "physics", "straw", "machine", "world", "views")
+_TOP_KEYS = ("schema", "run", "factors", "physics", "straw", "machine", "world", "track",
+             "views")
 _VIEW_KEYS = ("source", "fps", "axes", "origin_px", "ruler", "m_per_px", "calibration",
               "camera_distance_m", "frames", "sync_frame", "channel", "target",
               "exclude_frames", "manual_points")
@@ -355,6 +356,7 @@ class Scene:
     views: dict
     hash: str = field(default="", compare=False)
     world: object = None
+    track: dict = field(default_factory=dict)
 
     @property
     def v1_m_s(self):
@@ -400,5 +402,7 @@ class Scene:
             out["machine"] = {"speed_kmh": self.machine_speed_kmh}
         if self.world is not None:
             out["world"] = self.world.to_dict()
+        if self.track:
+            out["track"] = dict(self.track)
         out["views"] = {name: self.views[name].to_dict() for name in self.view_names}
         return out

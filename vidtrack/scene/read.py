@@ -309,6 +309,7 @@ def parse_scene(data, *, folder, label=SCENE_FILE, path=None):
                                     within=(*AIR_DENSITY_RANGE_KG_M3, "kg/m^3")),
     )
     straw = _parse_straw(ck, data, physics)
+    track = _parse_track(ck, data)
 
     machine = ck.table(data, "machine", "machine") or {}
     ck.keys(machine, ("speed_kmh",), "machine")
@@ -361,12 +362,36 @@ def parse_scene(data, *, folder, label=SCENE_FILE, path=None):
                   folder=folder if folder is not None else Path("."),
                   run_name=run_name, factors=factors, physics=physics, straw=straw,
                   machine_speed_kmh=speed, machine_speed_from=speed_from, views=views,
-                  world=world)
+                  world=world, track=track)
     calib = {name: {"camera": v.camera.to_dict() if v.camera is not None else None,
                     "scale": v.scale.to_dict() if v.scale is not None else None}
              for name, v in views.items() if v.calibration is not None and world is None}
     digest = _canonical_hash({"scene": scene.to_dict(), "calibration": calib})
     return dataclasses.replace(scene, hash=digest)
+
+
+def _parse_track(ck, data):
+    """``[track]``: the tracker (``engine``) and its settings, checked; ``{}`` if absent."""
+    table = ck.table(data, "track", "track")
+    if not table:
+        return {}
+    from vidtrack.errors import VidtrackError
+    from vidtrack.track.settings import TrackerSettings
+    from vidtrack.track.tracker import ENGINES
+
+    out = dict(table)
+    engine = out.pop("engine", "rules")
+    if engine not in ENGINES:
+        ck.fail("track.engine", f"must be one of {', '.join(map(repr, ENGINES))}, got "
+                f"{_show(engine)}")
+    if out and engine != "flight":
+        ck.fail(f"track.{sorted(out)[0]}", "is a setting of the flight tracker: give "
+                "engine = \"flight\" with it")
+    try:
+        TrackerSettings.from_mapping(out, where="track")
+    except VidtrackError as err:
+        ck.fail("", str(err))
+    return {"engine": engine, **out}
 
 
 def _scene_path(run_dir_or_toml):

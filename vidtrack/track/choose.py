@@ -6,14 +6,18 @@ position is extrapolated by a quadratic in time through the chain's last
 ``predict_frames`` points, and the detection taken is the one nearest it within a gate
 of ``max(gate_px, gate_sizes * size)`` pixels (half again for every frame missed), its
 distance weighed by how much its size differs from the chain's. A chain ends after ``max_gap`` frames without one.
-Chains through the same detections are one.
+Chains through the same detections are one; two chains that one flight explains across
+a gap (the object hidden behind something for longer than ``max_gap``) are joined when
+each one's path, carried over the gap, meets the other's and their joint score exceeds
+both of theirs.
 
-Each chain's **flight score** is the distance it travels between consecutive frames that
-a local quadratic in time through their neighbours predicts within ``flight_residual_px``
-(or ``flight_residual_sizes`` of its size), each step weighted by how little of it is
-shadow-like (:mod:`vidtrack.track.detect`); a chain that travels less than
-``min_travel_sizes`` of its own sizes scores nothing (something rocking in place, a
-person shifting, is not thrown). The chain with the highest score is the object. When a
+Each chain's **flight score** is the length of the path of its flight (the longest span
+one cubic in time explains, :func:`flight_segment`: free flight with a smoothly changing
+drag) times the share of that span's frames that a local quadratic through their
+neighbours predicts within ``flight_residual_px`` (or ``flight_residual_sizes`` of its
+size), seen whole and not shadow-like (:mod:`vidtrack.track.detect`); a chain whose
+flight is shorter than ``min_travel_sizes`` of its own sizes scores nothing (something
+resting, rocking in place, a person shifting, is not thrown). The chain with the highest score is the object. When a
 second chain seen at the same time (in half its frames or more), not a shadow and
 sharing no detection, scores within ``ambiguity_ratio`` of it with a signal (summed
 weight) within the same ratio, the choice is the user's: :class:`~vidtrack.errors.TrackError` lists both with the
@@ -135,30 +139,158 @@ def grow(detections, seed, settings):
     return pick
 
 
-def _score(chain, settings):
-    """The chain's explained travel (px); sets ``explained``.
+def _cubic(t, y, ok, lo, hi, gap_frames):
+    """The cubic in time through the ``ok`` points of ``y`` (N, 2) within [lo, hi]:
+    (its 90th percentile residual in px, its path length in px from point to point, across
+    no gap longer than ``gap_frames``); (0, 0) with fewer than 6 points."""
+    m = ok & (t >= lo) & (t <= hi)
+    if np.count_nonzero(m) < 6:
+        return 0.0, 0.0
+    half = max(0.5 * (hi - lo), 1.0)
+    tc = (t[m] - 0.5 * (lo + hi)) / half
+    a = np.vander(tc, 4)
+    coef, *_ = np.linalg.lstsq(a, y[m], rcond=None)
+    res = np.hypot(*(a @ coef - y[m]).T)
+    # the path's length where it was seen (not across a gap, where nothing was)
+    path = a @ coef
+    step = np.hypot(*np.diff(path, axis=0).T)
+    seen = np.diff(t[m]) <= gap_frames
+    return float(np.percentile(res, 90)), float(np.sum(step[seen]))
+
+
+def flight_segment(t, y, ok, settings, size):
+    """The longest span of time round the middle of the ``ok`` points that one cubic in
+    time explains (free flight with drag: gravity, a drag that changes smoothly) within
+    ``flight_model_px + flight_residual_sizes * size`` (90th percentile).
+
+    Grown from the middle of the ``ok`` points, both ways at once while the cubic holds,
+    then each way alone. A circle (a blade going round) or a path that turns back on
+    itself (a hand) is explained only in part.
+
+    Returns
+    -------
+    (numpy.ndarray of bool, float)
+        The ``ok`` points within the span, and the length (px) of the cubic's path over
+        it: how far the flight goes (noise about a place at rest adds nothing).
+    """
+    idx = np.flatnonzero(ok)
+    if idx.size < 6:
+        return ok & False, 0.0
+    tol = settings.flight_model_px + settings.flight_residual_sizes * size
+    mid = float(t[idx[idx.size // 2]])
+    t0, t1 = float(t[idx[0]]), float(t[idx[-1]])
+    lo, hi = max(mid - 2 * settings.path_window, t0), min(mid + 2 * settings.path_window, t1)
+    res, length = _cubic(t, y, ok, lo, hi, settings.max_gap + 1)
+    if res > tol:
+        return ok & False, 0.0
+    step = 1.4
+    while lo > t0 or hi < t1:
+        w = max(mid - lo, hi - mid, 1.0) * step
+        nlo, nhi = max(mid - w, t0), min(mid + w, t1)
+        r, n_len = _cubic(t, y, ok, nlo, nhi, settings.max_gap + 1)
+        if r > tol:
+            break
+        lo, hi, length = nlo, nhi, n_len
+    for side in (-1, 1):
+        while (lo > t0) if side < 0 else (hi < t1):
+            w = max((hi - lo) * (step - 1.0), 1.0)
+            nlo, nhi = (max(lo - w, t0), hi) if side < 0 else (lo, min(hi + w, t1))
+            r, n_len = _cubic(t, y, ok, nlo, nhi, settings.max_gap + 1)
+            if r > tol:
+                break
+            lo, hi, length = nlo, nhi, n_len
+    return ok & (t >= lo) & (t <= hi), length
+
+
+def _score(chain, settings, detections):
+    """The chain's flight score (px); sets ``explained``.
 
     A frame is explained when the local quadratic path through its neighbours predicts
-    it; the score is the distance travelled between consecutive explained frames, each
-    step weighted by how little of it is shadow-like. A thrown object travels far along
-    a smooth path; something rocking or shifting in place, a shadow, does not.
+    it, it is whole in view (a detection cut by the frame's border is not measured), and
+    it lies in the chain's flight segment (:func:`flight_segment`); the score is the
+    length of the flight segment's path, times the share of its frames explained and not
+    shadow-like. A thrown object travels far along one smooth path; something resting,
+    rocking or shifting in place, a shadow, a blade going round, does not.
     """
     idx = chain.frames
     if idx.size < 3:
         return 0.0
     u, v = chain.u[idx], chain.v[idx]
     size = float(np.median(chain.size[idx]))
-    pred, _ = local_quadratic(idx, np.column_stack([u, v]), settings.path_window)
-    res = np.hypot(*(pred - np.column_stack([u, v])).T)
+    uv = np.column_stack([u, v])
+    pred, _ = local_quadratic(idx, uv, settings.path_window)
+    res = np.hypot(*(pred - uv).T)
     ok = res <= max(settings.flight_residual_px, settings.flight_residual_sizes * size)
-    travel = np.hypot(u - u[0], v - v[0])
-    if not ok.any() or float(np.nanmax(travel)) < settings.min_travel_sizes * size:
+    ok &= ~np.array([bool(detections[i][chain.pick[i]]["border"]) for i in idx])
+    seg, length = flight_segment(idx.astype(float), uv, ok, settings, size)
+    if not seg.any() or length < settings.min_travel_sizes * size:
         return 0.0
-    chain.explained[idx[ok]] = True
-    step = np.hypot(np.diff(u), np.diff(v))
-    both = ok[1:] & ok[:-1]
-    w = 1.0 - 0.5 * (chain.shadow[idx][1:].astype(float) + chain.shadow[idx][:-1])
-    return float(np.sum(step * both * w))
+    chain.explained[idx[seg]] = True
+    inside = (idx >= idx[seg][0]) & (idx <= idx[seg][-1])
+    good = np.count_nonzero(seg & ~chain.shadow[idx]) / max(np.count_nonzero(inside), 1)
+    return float(length * good)
+
+
+def _joined(a, b, detections, settings):
+    """The chain of ``a``'s flight then ``b``'s, when ``a``'s explained frames begin and
+    end before ``b``'s (a few frames in common are split between them) and their paths,
+    each carried to the middle of the gap between them, meet there; else None."""
+    ea, eb = np.flatnonzero(a.explained), np.flatnonzero(b.explained)
+    if ea.size < 3 or eb.size < 3 or ea[0] >= eb[0] or ea[-1] >= eb[-1]:
+        return None
+    split = int(ea[-1]) if ea[-1] < eb[0] else (int(ea[-1]) + int(eb[0])) // 2
+    ea, eb = ea[ea <= split], eb[eb > split]
+    if ea.size < 3 or eb.size < 3:
+        return None
+    # each side's path from its frames a little way from the gap (those beside it may be
+    # the object partly hidden), carried to the gap's middle: they must meet there
+    k = settings.predict_frames
+    pa, pb = ea[:-3][-3 * k:], eb[3:][:3 * k]
+    if pa.size < 3 or pb.size < 3:
+        return None
+    mid = 0.5 * (ea[-1] + eb[0])
+    size = float(np.median(np.r_[a.size[ea], b.size[eb]]))
+    gap = float(pb[0] - pa[-1])
+    gate = max(settings.gate_px, settings.gate_sizes * size) * (1.0 + 0.25 * gap)
+    ends = []
+    for src, pts in ((a, pa), (b, pb)):
+        deg = min(2, pts.size - 1)
+        ends.append([np.polyval(np.polyfit(pts - mid, src.u[pts], deg), 0.0),
+                     np.polyval(np.polyfit(pts - mid, src.v[pts], deg), 0.0)])
+    if np.hypot(ends[0][0] - ends[1][0], ends[0][1] - ends[1][1]) > gate:
+        return None
+    pick = np.full(a.pick.size, -1, np.int64)
+    pick[:ea[-1] + 1] = a.pick[:ea[-1] + 1]
+    pick[eb[0]:] = b.pick[eb[0]:]
+    return Chain(pick, detections)
+
+
+def _join(chains, detections, settings):
+    """Chains one flight explains across a gap (the object hidden behind something for
+    longer than ``max_gap`` frames) joined: a pair is joined when its joint flight score
+    exceeds both of theirs by a tenth and holds most of each one's flight."""
+    chains = list(chains)
+    joined = True
+    while joined:
+        joined = False
+        for i, a in enumerate(chains):
+            for j, b in enumerate(chains):
+                if i == j or a.score <= 0 or b.score <= 0:
+                    continue
+                both = _joined(a, b, detections, settings)
+                if both is None:
+                    continue
+                both.score = _score(both, settings, detections)
+                # (one flight through both: most of each one's flight is in the joint one)
+                holds = all(np.count_nonzero(both.explained & c.explained)
+                            >= 0.5 * np.count_nonzero(c.explained) for c in (a, b))
+                if holds and both.score > 1.1 * max(a.score, b.score):
+                    chains = [c for k, c in enumerate(chains) if k not in (i, j)] + [both]
+                    joined = True
+                    break
+            if joined:
+                break
+    return chains
 
 
 def _seeds(detections, tracklets, settings):
@@ -232,18 +364,22 @@ def choose(detections, tracklets, settings, *, target=None, frame_numbers=None,
     if target is not None:
         seed = _target_seed(detections, target, frame_numbers, what)
         chain = Chain(grow(detections, seed, settings), detections)
-        chain.score = _score(chain, settings)
+        chain.score = _score(chain, settings, detections)
         return chain, []
-    chains = []
+    grown = []
     for seed in _seeds(detections, tracklets, settings):
-        if any(c.pick[f] == j for c in chains for f, j in seed[:1]):
+        if any(c.pick[f] == j for c in grown for f, j in seed[:1]):
             continue
         chain = Chain(grow(detections, seed, settings), detections)
-        if any(np.count_nonzero((c.pick == chain.pick) & (c.pick >= 0))
-               > 0.5 * min(c.frames.size, chain.frames.size) for c in chains):
-            continue
-        chain.score = _score(chain, settings)
-        chains.append(chain)
+        chain.score = _score(chain, settings, detections)
+        grown.append(chain)
+    # chains through the same detections are one: the best scoring of them
+    chains = []
+    for chain in sorted(grown, key=lambda c: c.score, reverse=True):
+        if not any(np.count_nonzero((c.pick == chain.pick) & (c.pick >= 0))
+                   > 0.5 * min(c.frames.size, chain.frames.size) for c in chains):
+            chains.append(chain)
+    chains = _join(chains, detections, settings)
     chains = [c for c in chains if c.score > 0]
     if not chains:
         moving = sum(1 for tr in tracklets if len(tr) >= settings.link_min_frames)

@@ -194,7 +194,8 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     moments, residual = _measure(source, held, detector, detections, chain, settings, cancel)
     del held
     flags, release, scatter, notes = judge(chain, detections, n, settings,
-                                           find_release=view != "top", residual=residual)
+                                           find_release=view != "top", residual=residual,
+                                           weight=moments[:, 0])
     u, v = chain.u.copy(), chain.v.copy()
     area = np.full(n, np.nan)
     angle = np.full(n, np.nan)

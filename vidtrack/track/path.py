@@ -25,7 +25,8 @@ def robust_scale(x, *, floor=0.0):
     return max(float(MAD_TO_SIGMA * np.median(np.abs(x - np.median(x)))), float(floor))
 
 
-def local_quadratic(t, y, window, *, leave_out=True, weights=None):
+def local_quadratic(t, y, window, *, leave_out=True, weights=None, leverage=False,
+                    ahead=False):
     """Each point's value predicted by a quadratic through its neighbours.
 
     Parameters
@@ -40,6 +41,15 @@ def local_quadratic(t, y, window, *, leave_out=True, weights=None):
         Leave the point itself out of its own fit (a prediction, for outlier tests).
     weights : (N,) array, optional
         Weights of the points as neighbours (0 leaves a point out of every fit).
+    ahead : bool, keyword-only
+        Use the point and the ``2 * window`` points after it only (a fit that sees
+        nothing before the point: where the path changes at a frame, the frames after
+        it are fitted from that side alone).
+    leverage : bool, keyword-only
+        Also return each prediction's variance in units of one point's variance
+        (``h``: ``(A^-1)[0, 0]`` of the fit's normal matrix with unit weights): a point
+        predicted from neighbours on one side only (the ends of a path) is predicted
+        less well, and a test of its residual divides by ``sqrt(1 + h)``.
 
     Returns
     -------
@@ -49,6 +59,9 @@ def local_quadratic(t, y, window, *, leave_out=True, weights=None):
     acc : (N,) or (N, D) array
         Twice the quadratic coefficient: the acceleration (units of y per time^2);
         0 where a line was fitted, NaN where nothing was.
+    h, ha : (N,) arrays
+        With ``leverage``: the prediction's and the acceleration's variance factors
+        (NaN where none; the acceleration's NaN where a line was fitted).
     """
     t = np.asarray(t, float)
     y = np.asarray(y, float)
@@ -56,7 +69,7 @@ def local_quadratic(t, y, window, *, leave_out=True, weights=None):
     y2 = y[:, None] if one else y
     n = t.size
     w = np.ones(n) if weights is None else np.asarray(weights, float)
-    offs = np.arange(-window, window + 1)
+    offs = np.arange(0, 2 * window + 1) if ahead else np.arange(-window, window + 1)
     if leave_out:
         offs = offs[offs != 0]
     j = np.arange(n)[:, None] + offs[None, :]
@@ -70,6 +83,8 @@ def local_quadratic(t, y, window, *, leave_out=True, weights=None):
     count = np.sum(m > 0, axis=1)
     pred = np.full(y2.shape, np.nan)
     acc = np.full(y2.shape, np.nan)
+    hvar = np.full(n, np.nan)
+    avar = np.full(n, np.nan)
     yj = y2[jc]
     b = np.stack([np.sum((m * dt ** k)[..., None] * yj, axis=1) for k in range(3)], 1)
     quad = count >= 3
@@ -81,6 +96,13 @@ def local_quadratic(t, y, window, *, leave_out=True, weights=None):
             coef = np.linalg.solve(a[idx], b[idx])
             pred[idx] = coef[:, 0]
             acc[idx] = 2.0 * coef[:, 2]
+            if leverage:
+                e0 = np.zeros((idx.size, 3, 2))
+                e0[:, 0, 0] = 1.0
+                e0[:, 2, 1] = 1.0
+                inv = np.linalg.solve(a[idx], e0)
+                hvar[idx] = inv[:, 0, 0]
+                avar[idx] = 4.0 * inv[:, 2, 1]
     line = (count == 2) | (quad & ~np.isfinite(pred[:, 0]))
     if line.any():
         a2 = a[line][:, :2, :2]
@@ -91,6 +113,9 @@ def local_quadratic(t, y, window, *, leave_out=True, weights=None):
             coef = np.linalg.solve(a2[ok], b[idx][:, :2])
             pred[idx] = coef[:, 0]
             acc[idx] = 0.0
-    if one:
-        return pred[:, 0], acc[:, 0]
-    return pred, acc
+            if leverage:
+                e0 = np.zeros((idx.size, 2, 1))
+                e0[:, 0, 0] = 1.0
+                hvar[idx] = np.linalg.solve(a2[ok], e0)[:, 0, 0]
+    out = (pred[:, 0], acc[:, 0]) if one else (pred, acc)
+    return out + (hvar, avar) if leverage else out

@@ -70,12 +70,19 @@ class TrackerSettings:
         A chain is a flight only when it travels at least this many of its own sizes
         (dimensionless): something that rocks in place is not thrown.
     flight_residual_px : float
-        Choosing: a chain's flight score is its travel between frames that lie within
-        this distance (px) of the local quadratic path through their neighbours, or
+        Choosing: a frame counts towards a chain's flight when it lies within this
+        distance (px) of the local quadratic path through its neighbours, or
         ``flight_residual_sizes`` of the object's size, the larger.
     flight_residual_sizes : float
         The same distance as a share of the object's size (square root of its pixel
-        count): a large object's centroid wanders more as its shape turns.
+        count): a large object's centroid wanders more as its shape turns (0.1 of a
+        size is added to ``flight_model_px`` for the flight's cubic).
+    flight_model_px : float
+        Choosing: a chain's flight is the longest span round its middle that one cubic
+        in time explains within this distance (px; 90th percentile) plus
+        ``flight_residual_sizes`` of its size: free flight with a drag that changes
+        smoothly (a straw's 0.3 s flight at 1200 fps: 0.23 px). A blade's tip going
+        round (2.7 px over a turn), a hand turning back, is explained in part.
     ambiguity_ratio : float
         Two chains seen at the same time whose flight scores, and whose signals (summed
         weights), are within this ratio of each other (neither a shadow) are ambiguous: the tracker stops and names both, with the
@@ -99,6 +106,10 @@ class TrackerSettings:
         small the chain's scatter.
     size_floor : float
         The size test's smallest scatter of log area (dimensionless).
+    weight_floor : float
+        The smallest scatter of the log of the object's measured weight (its coverage)
+        that the appearance test divides by: with ``k_flag`` 5, a frame with a tenth of
+        the object hidden is flagged.
     path_window : int
         Frames either side of a frame in its local path fit (frames).
     """
@@ -118,7 +129,8 @@ class TrackerSettings:
     predict_frames: int = 8
     min_travel_sizes: float = 2.0
     flight_residual_px: float = 1.5
-    flight_residual_sizes: float = 0.2
+    flight_residual_sizes: float = 0.1
+    flight_model_px: float = 1.0
     ambiguity_ratio: float = 1.25
     seeds_max: int = 12
     kernel_sigmas: float = 2.5
@@ -126,6 +138,7 @@ class TrackerSettings:
     k_flag: float = 5.0
     flag_floor_px: float = 0.5
     size_floor: float = 0.08
+    weight_floor: float = 0.02
     path_window: int = 6
 
     def __post_init__(self):
@@ -146,13 +159,13 @@ class TrackerSettings:
                                 "below 1")
 
     @classmethod
-    def from_mapping(cls, mapping, *, where="[track]"):
+    def from_mapping(cls, mapping, *, where="track"):
         """Settings from a ``[track]`` table; an unknown name is refused, naming it."""
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(mapping) - known)
         if unknown:
-            raise VidtrackError(f"{where}: unknown setting {unknown[0]!r}; known: "
-                                f"{', '.join(sorted(known))}")
+            raise VidtrackError(f"{where}.{unknown[0]} is not a setting of the flight tracker; "
+                                f"expected one of engine, {', '.join(sorted(known))}")
         return cls(**dict(mapping))
 
     def to_dict(self):
