@@ -87,8 +87,9 @@ def pixel_weights(d, b, sigma, level, obj):
         ``(f - b) / (L - b)`` clipped to [0, 1] where the object has one level that
         stands 2 noises clear of the background there (its coverage, whatever the
         background's texture under it: a weight of ``|d|`` would lean towards the
-        darker texture); elsewhere ``min(|d|, level) / level``, bounded (a highlight
-        or texture inside an object of two polarities).
+        darker texture), 0 where the pixel is of the other polarity (its shadow);
+        elsewhere ``min(|d|, level) / level``, bounded (a highlight or texture inside an
+        object of two polarities).
     """
     a = np.abs(d)
     w = np.minimum(a, level) / np.maximum(level, 1e-9)
@@ -96,6 +97,10 @@ def pixel_weights(d, b, sigma, level, obj):
     with np.errstate(invalid="ignore"):
         pol = np.sign(span)
         solid = np.isfinite(span) & (np.abs(span) > 2.0 * sigma) & (pol * d >= 0)
+        # (of an object of one level, a pixel of the other polarity is none of it: its
+        # shadow, compression's ringing)
+        other = np.isfinite(span) & (pol * d < 0)
+    w = np.where(other, 0.0, w)
     return np.where(solid, np.clip(d / np.where(solid, span, 1.0), 0.0, 1.0), w)
 
 
@@ -158,10 +163,16 @@ class Detector:
         fv = f[ys, xs].astype(np.float64)
         bgv = self.bg[ys, xs].astype(np.float64)
         sign = np.where(np.bincount(li, d, m) >= 0, 1.0, -1.0)
-        # (an object of two polarities, a highlight on a dark ball, has no one level)
-        # (compression's ringing round a bright straw is a few grey levels of the other
-        # polarity: a share of the contrast, not of the pixels)
-        other = np.bincount(li, np.where(sign[li] * d < -self.grow_level[ys, xs], a, 0.0), m)
+        # (an object of two polarities, a highlight on a dark ball, has no one level;
+        # compression's ringing round a bright straw is a few grey levels of the other
+        # polarity: a share of the contrast, not of the pixels; and a bright object's
+        # shadow beside it, the background dimmed by a factor no smaller than
+        # shadow_ratio_min, is not the object's other polarity: measured as one level,
+        # the object's coverage gives the shadow no weight)
+        ratio_all = fv / np.maximum(bgv, 1.0)
+        dimmed = (d < 0) & (ratio_all >= s.shadow_ratio_min) & (sign[li] > 0)
+        other = np.bincount(li, np.where((sign[li] * d < -self.grow_level[ys, xs])
+                                         & ~dimmed, a, 0.0), m)
         one_level = other <= ONE_LEVEL_SHARE * np.bincount(li, a, m)
         obj = sign * _percentile_by_label(sign[li] * fv, li, m, 0.9)
         obj = np.where(one_level, obj, np.nan)
