@@ -33,14 +33,33 @@ def source_of(view, scene, folder):
 
 def tracker_options(scene):
     """The scene's ``[track]`` table as :func:`vidtrack.track.tracker.track`'s keywords:
-    ``engine`` and, for the flight tracker, its ``settings``."""
+    ``engine`` and, for the flight tracker, its ``settings``.
+
+    Raises
+    ------
+    SceneError
+        An engine the tracker does not have, a setting it does not have, a setting
+        without ``engine = "flight"``, a value out of range: one line naming the key.
+    """
+    from vidtrack.errors import SceneError, VidtrackError
+    from vidtrack.track.settings import TrackerSettings
+    from vidtrack.track.tracker import ENGINES
+
     table = dict(getattr(scene, "track", None) or {})
     engine = table.pop("engine", "rules")
+    where = scene.path
+    if engine not in ENGINES:
+        raise SceneError(f"{where}: track.engine must be one of "
+                         f"{', '.join(repr(e) for e in ENGINES)}, got {engine!r}")
     if engine != "flight":
+        if table:
+            raise SceneError(f"{where}: track.{sorted(table)[0]} is a setting of the flight "
+                             f"tracker: give engine = \"flight\" with it")
         return {}
-    from vidtrack.track.settings import TrackerSettings
-
-    return {"engine": engine, "settings": TrackerSettings.from_mapping(table)}
+    try:
+        return {"engine": engine, "settings": TrackerSettings.from_mapping(table)}
+    except VidtrackError as err:
+        raise SceneError(f"{where}: {err}") from None
 
 
 def track_view(scene, folder, name, settings, *, quiet=True, cancel=None, parts=False):

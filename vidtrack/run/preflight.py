@@ -285,7 +285,10 @@ def prepare_run(run_dir, *, open_sources=True, check_outputs=True):
     """
     from vidtrack.scene import load_scene
 
+    from vidtrack.run._workers import tracker_options
+
     scene = load_scene(run_dir)
+    tracker_options(scene)          # the [track] table, checked before anything is tracked
     plan = RunPlan(scene=scene, out=scene.folder / OUT_DIR, throws=list(scene.throw_dirs()))
     for folder, _ in plan.folders():
         findings, notes = _check_folder_sources(
