@@ -35,7 +35,7 @@ import numpy as np
 __all__ = ["Detector", "DETECTION_DTYPE", "MAX_DETECTIONS", "pixel_weights"]
 
 #: At most this many detections are kept per frame (the strongest by total weight).
-MAX_DETECTIONS = 48
+MAX_DETECTIONS = 128
 
 #: One detection: centroid (px), weight (coverage-like area, px^2), pixel count, second
 #: central moments (px^2), contrast (grey levels, signed: + brighter than the
