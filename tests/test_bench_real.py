@@ -258,3 +258,12 @@ def test_scoreboard_options_misused_exit_2(tmp_path, args):
     res = run_vidtrack("bench", "track", *args, "--out", tmp_path / "out")
     assert res.returncode == 2, res.stderr
     assert not (tmp_path / "out" / "bench_track_real.csv").exists()
+
+
+def test_scoreboard_without_a_folder_of_real_footage_skips_the_real_clips(tmp_path):
+    res = run_vidtrack("bench", "track", "--real", "--clips", "balltoss,launcher",
+                       "--out", tmp_path / "out", "-q")
+    assert res.returncode == 0, res.stderr
+    table = pd.read_csv(tmp_path / "out" / "bench_track_real.csv")
+    assert (table["status"] == "skipped").all() and len(table) == 2
+    assert "no folder of real footage given (--shared DIR" in res.stdout

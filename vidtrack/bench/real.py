@@ -3,8 +3,9 @@
 Every clip of ``<shared>/data/real`` that has footage and every synthetic distractor
 scene (:data:`vidtrack.bench.scenes.CASES`) is tracked by each tracker engine
 (``vidtrack.track.tracker.ENGINES``; "rules" where the tracker has no engines), and
-scored against a reference someone else made. ``<shared>`` is ``../shared`` beside the
-checkout unless given; the footage is read there, never copied. A clip whose files are
+scored against a reference someone else made. ``<shared>`` is the folder given with
+``--shared`` (without it the real clips are skipped, saying so); the footage is read
+there, never copied. A clip whose files are
 absent is skipped, saying so; a clip an engine refuses (exit 2 in ``vidtrack fit``)
 gives a ``failed`` row with the message.
 
@@ -391,10 +392,9 @@ def engines_to_run(requested=None):
 
 
 def default_shared():
-    """``../shared`` beside the checkout this package was loaded from."""
-    import vidtrack
-
-    return Path(vidtrack.__file__).resolve().parents[1].parent / "shared"
+    """The folder of real footage when none is given: none (the real clips are third
+    party, kept beside a developer's checkout, never in it); give ``--shared DIR``."""
+    return None
 
 
 # ------------------------------------------------------------------- the run
@@ -438,8 +438,8 @@ def run_scoreboard(out_dir, *, shared=None, engines=None, clips=None, quick=Fals
     out_dir : str or os.PathLike
         Folder for ``bench_track_real.csv`` and ``bench_track_real.txt`` (created).
     shared : str or os.PathLike, optional
-        The shared folder holding ``data/real`` (default :func:`default_shared`). Its
-        footage is read in place.
+        The folder holding ``data/real`` (default :func:`default_shared`: none, the real
+        clips skipped, saying so). Its footage is read in place.
     engines : sequence of str, optional
         Engines to compare (default: all, :func:`engines_to_run`).
     clips : str, optional
@@ -462,11 +462,15 @@ def run_scoreboard(out_dir, *, shared=None, engines=None, clips=None, quick=Fals
     engines = engines_to_run(engines)
     names = select_clips(clips)
     shared = Path(shared) if shared is not None else default_shared()
-    real_dir = shared / "data" / "real"
     rows = []
     for clip in REAL_CLIPS:
         if clip.name not in names:
             continue
+        if shared is None:
+            rows.append(_skipped(clip.name, "no folder of real footage given (--shared DIR, "
+                                            "the folder holding data/real)"))
+            continue
+        real_dir = shared / "data" / "real"
         path, ref_path = real_dir / clip.footage, real_dir / clip.reference
         missing = [p for p in (path, ref_path) if not p.is_file()]
         if missing:

@@ -65,9 +65,9 @@ def add_arguments(parser):
                            "'synth:shadow' (both views), 'synth:shadow/front', or the "
                            "groups real, synth, bear, badminton (default: all)")
     real.add_argument("--shared", default=None, metavar="DIR",
-                      help="with --real: the shared folder holding data/real, read in "
-                           "place (default: ../shared beside the checkout), e.g. "
-                           "--shared /data/shared")
+                      help="with --real: the folder holding data/real (third-party "
+                           "clips with their references), read in place; without it the "
+                           "real clips are skipped, saying so; e.g. --shared /data/shared")
 
 
 def run(args):
