@@ -30,7 +30,19 @@ import numpy as np
 from vidtrack.errors import TrackError
 from vidtrack.track.path import local_quadratic
 
-__all__ = ["Chain", "grow", "choose"]
+__all__ = ["Chain", "grow", "choose", "flight_segment"]
+
+#: Two chains are one when they share more than this share of the shorter's detections;
+#: two chains are seen at once when both have detections in this share of the shorter's
+#: frames; a chain is a shadow when this share of its frames are shadow-like.
+MAJORITY = 0.5
+
+#: Two chains joined across a gap must score this many times the better of them, and
+#: keep at least MAJORITY of each one's flight.
+JOIN_GAIN = 1.1
+
+#: Two chains whose points in a frame lie within this distance (px) share a detection.
+SAME_PX = 1.0
 
 
 class Chain:
@@ -283,8 +295,8 @@ def _join(chains, detections, settings):
                 both.score = _score(both, settings, detections)
                 # (one flight through both: most of each one's flight is in the joint one)
                 holds = all(np.count_nonzero(both.explained & c.explained)
-                            >= 0.5 * np.count_nonzero(c.explained) for c in (a, b))
-                if holds and both.score > 1.1 * max(a.score, b.score):
+                            >= MAJORITY * np.count_nonzero(c.explained) for c in (a, b))
+                if holds and both.score > JOIN_GAIN * max(a.score, b.score):
                     chains = [c for k, c in enumerate(chains) if k not in (i, j)] + [both]
                     joined = True
                     break
@@ -377,7 +389,7 @@ def choose(detections, tracklets, settings, *, target=None, frame_numbers=None,
     chains = []
     for chain in sorted(grown, key=lambda c: c.score, reverse=True):
         if not any(np.count_nonzero((c.pick == chain.pick) & (c.pick >= 0))
-                   > 0.5 * min(c.frames.size, chain.frames.size) for c in chains):
+                   > MAJORITY * min(c.frames.size, chain.frames.size) for c in chains):
             chains.append(chain)
     chains = _join(chains, detections, settings)
     chains = [c for c in chains if c.score > 0]
@@ -393,12 +405,13 @@ def choose(detections, tracklets, settings, *, target=None, frame_numbers=None,
     r = settings.ambiguity_ratio
     for other in chains[1:]:
         both = (other.pick >= 0) & (best.pick >= 0)
-        shared = np.any(both & (np.abs(other.u - best.u) < 1.0)
-                        & (np.abs(other.v - best.v) < 1.0))
-        at_once = np.count_nonzero(both) >= 0.5 * min(other.frames.size, best.frames.size)
+        shared = np.any(both & (np.abs(other.u - best.u) < SAME_PX)
+                        & (np.abs(other.v - best.v) < SAME_PX))
+        at_once = (np.count_nonzero(both)
+                   >= MAJORITY * min(other.frames.size, best.frames.size))
         if shared or not at_once or other.score * r < best.score:
             continue
-        if other.shadow[other.frames].mean() > 0.5 or other.signal * r < best.signal:
+        if other.shadow[other.frames].mean() > MAJORITY or other.signal * r < best.signal:
             continue
         lines = []
         for c in (best, other):

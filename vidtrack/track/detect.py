@@ -52,6 +52,14 @@ DETECTION_DTYPE = np.dtype([("u", "f8"), ("v", "f8"), ("weight", "f8"), ("area",
 
 _KERNEL3 = np.ones((3, 3), np.uint8)
 
+#: A pixel's coverage is read against the object's own level only where that level
+#: stands this many noises clear of the background there.
+CLEAR_SIGMAS = 2.0
+
+#: The background under a detection has texture when its standard deviation there is
+#: at least this many noises (the shadow test then asks the texture to be kept).
+TEXTURE_SIGMAS = 3.0
+
 #: An object whose pixels of the other polarity (beyond ``k_grow``) hold at most this
 #: share of its summed contrast has one grey level (a highlight holds more).
 ONE_LEVEL_SHARE = 0.05
@@ -96,7 +104,7 @@ def pixel_weights(d, b, sigma, level, obj):
     span = obj - b
     with np.errstate(invalid="ignore"):
         pol = np.sign(span)
-        solid = np.isfinite(span) & (np.abs(span) > 2.0 * sigma) & (pol * d >= 0)
+        solid = np.isfinite(span) & (np.abs(span) > CLEAR_SIGMAS * sigma) & (pol * d >= 0)
         # (of an object of one level, a pixel of the other polarity is none of it: its
         # shadow, compression's ringing)
         other = np.isfinite(span) & (pol * d < 0)
@@ -204,7 +212,7 @@ class Detector:
         sff = np.bincount(li, cf * cf, m)
         sbf = np.bincount(li, cb * cf, m)
         texture_r = sbf / np.sqrt(np.maximum(sbb * sff, 1e-12))
-        textured = np.sqrt(sbb / np.maximum(cnt, 1)) >= 3.0 * self.noise
+        textured = np.sqrt(sbb / np.maximum(cnt, 1)) >= TEXTURE_SIGMAS * self.noise
         zc = np.where(core, a / self.sigma[ys, xs], 0.0)
         snr = np.bincount(li, zc, m) / np.sqrt(np.maximum(cnt, 1))
         good &= snr >= s.min_snr

@@ -33,6 +33,7 @@ rotor, and the first frame after it is the release; before it, PRE_RELEASE.
 import numpy as np
 
 from vidtrack.track._flags import APPEARANCE, BORDER, LOST, OUTLIER, PRE_RELEASE
+from vidtrack.track.choose import MAJORITY
 from vidtrack.track.measure import residual_outliers
 from vidtrack.track.path import local_quadratic, robust_scale
 
@@ -160,7 +161,7 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
             release = int(on[start])
             flags[idx[idx < release]] |= PRE_RELEASE
             notes.append(f"release: the path's sharp bend ends at frame position {release}")
-    if chain.shadow[idx].mean() <= 0.5:
+    if chain.shadow[idx].mean() <= MAJORITY:
         flags[idx[chain.shadow[idx]]] |= APPEARANCE
     first, last = idx[0], idx[-1]
     flags[:first] = LOST

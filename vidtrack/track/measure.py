@@ -30,6 +30,13 @@ _CONVERGED_PX = 0.005
 
 _KERNEL3 = np.ones((3, 3), np.uint8)
 
+#: The kernel turns with the object (its orientation fitted) only for an object at least
+#: this many times longer than wide: a round one has no orientation to fit.
+ELONGATED = 1.5
+
+#: The residual share is taken over the pixels within this many kernels of the object.
+NEAR_KERNELS = 2.0
+
 
 class Shape:
     """The object's shape: spreads (px, standard deviations) along its major and minor
@@ -118,7 +125,7 @@ def measure_frame(frame, background, sigma, det, shape, settings):
         eu, ev = x - nu, y - nv
         iuu, ivv = np.sum(wi * eu * eu) / sw, np.sum(wi * ev * ev) / sw
         iuv = np.sum(wi * eu * ev) / sw
-        if shape.major > 1.5 * shape.minor:
+        if shape.major > ELONGATED * shape.minor:
             theta = 0.5 * np.arctan2(2.0 * iuv, iuu - ivv)
         step = np.hypot(nu - cu, nv - cv)
         cu, cv = nu, nv
@@ -134,7 +141,7 @@ def measure_frame(frame, background, sigma, det, shape, settings):
     muv = float(np.sum(wi * eu * ev) / sw)
     c, s = np.cos(theta), np.sin(theta)
     m2 = ((eu * c + ev * s) / a) ** 2 + ((-eu * s + ev * c) / b) ** 2
-    near = m2 <= 4.0 * k * k
+    near = m2 <= (NEAR_KERNELS * k) ** 2
     out = float(np.sum(w * (near & ~inside)))
     return cu, cv, sw, muu, mvv, muv, out / (out + sw)
 
