@@ -207,13 +207,27 @@ def _warm_up_plots():
     _html.png_bytes(_html.figure(1, 1))   # fonts and the Agg canvas, once
 
 
+def _stopped(*_):
+    """SIGTERM in the worker: the caller is stopping it (another view failed, Ctrl-C).
+    Whatever the exit interrupts (an import half done: numpy then says its C extensions
+    failed) concerns no one, so nothing more is printed: the caller says what went
+    wrong, in one line."""
+    import os
+
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), 2)
+    except OSError:
+        pass
+    sys.exit(1)
+
+
 def _process_main(conn, level=logging.WARNING):
     """Body of the worker process: serve the jobs that come down ``conn`` until it closes;
     what it logs at ``level`` and above goes back with each answer."""
     # Ctrl-C reaches the whole process group: the caller stops this process itself, by
     # SIGTERM, on which it exits as from an error (finalisers run: no leaked semaphore)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))
+    signal.signal(signal.SIGTERM, _stopped)
     _exit_with_parent()
     try:
         _serve(conn, _keep_logs(level))
