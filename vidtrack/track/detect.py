@@ -34,7 +34,9 @@ import numpy as np
 
 __all__ = ["Detector", "DETECTION_DTYPE", "MAX_DETECTIONS", "pixel_weights"]
 
-#: At most this many detections are kept per frame (the strongest by total weight).
+#: At most this many detections are kept per frame: the most significant (by their
+#: signal-to-noise ratio; a small object of strong contrast before a crowd whose
+#: compression noise makes many large faint detections is kept).
 MAX_DETECTIONS = 128
 
 #: One detection: centroid (px), weight (coverage-like area, px^2), pixel count, second
@@ -233,5 +235,5 @@ class Detector:
         out["level"], out["obj_level"] = level, obj
         out = out[good]
         if out.size > MAX_DETECTIONS:
-            out = out[np.argsort(out["weight"])[::-1][:MAX_DETECTIONS]]
+            out = out[np.argsort(out["snr"])[::-1][:MAX_DETECTIONS]]
         return out

@@ -22,13 +22,15 @@ Against the chain's own clean frames, two tests with one threshold, ``k_flag``:
 A detection touching the frame's border is BORDER; frames inside the chain's span
 without a detection are LOST.
 
-The **release** (front views): on the rotor the straw's path bends far more sharply
-than in flight. Every clean frame's local acceleration (a quadratic through it and the
-``2 * path_window`` frames after it, so that no frame before it counts) is tested against the flight's (the median over the chain's second
-half), in units of its own standard error (the path's scatter times the fit's variance
-factor): the run of frames from the chain's start beyond ``k_flag`` of them is on the
-rotor, and the first frame after it is the release; before it, PRE_RELEASE.
+The **release** (front views): where the path's acceleration drops at a stroke, from the
+ride on a blade or in a hand to free flight (:func:`vidtrack.track.release.find_release`:
+a spline knot fitted robustly to the chain's first ``release_window`` frames on its
+path, counted when it is significant (``release_significance``), the acceleration before
+it at least ``release_ratio`` times that after, and something touched the object
+within ``release_touch_frames`` before it); the frames before it are PRE_RELEASE.
 """
+
+import warnings
 
 import numpy as np
 
@@ -36,6 +38,7 @@ from vidtrack.track._flags import APPEARANCE, BORDER, LOST, OUTLIER, PRE_RELEASE
 from vidtrack.track.choose import MAJORITY
 from vidtrack.track.measure import residual_outliers
 from vidtrack.track.path import local_quadratic, robust_scale
+from vidtrack.track.release import find_release as release_knot
 
 __all__ = ["judge", "REASONS"]
 
@@ -69,48 +72,28 @@ def _path_outliers(idx, uv, settings, start):
     return ~ok, scatter
 
 
-def _size_outliers(size, settings, window, floor=None, deficit_only=False):
-    """Frames whose log size differs from their neighbours' median beyond ``k_flag``
-    robust scatters of those differences (at least ``floor``, default ``size_floor``)."""
+def _neighbour_median(x, window):
+    """Each value's neighbours' median within ``window`` positions either side, itself
+    left out (its own value where it has none)."""
+    n = x.size
+    pad = np.concatenate([np.full(window, np.nan), x, np.full(window, np.nan)])
+    wins = np.lib.stride_tricks.sliding_window_view(pad, 2 * window + 1).copy()
+    wins[:, window] = np.nan
+    with warnings.catch_warnings():
+        # (a frame with no neighbour: all-NaN window, its own value kept)
+        warnings.simplefilter("ignore", RuntimeWarning)
+        med = np.nanmedian(wins, axis=1)
+    return np.where(np.isfinite(med), med, x) if n else med
+
+
+def _size_z(size, settings, window, floor=None):
+    """Each frame's log size less its neighbours' median within ``window`` frames, in
+    robust scatters of those differences (at least ``floor``, default ``size_floor``):
+    beyond ``k_flag``, grown at a stroke (something touching); below ``-k_flag``, shrunk
+    (part hidden)."""
     logs = np.log(np.maximum(size, 1e-9))
-    n = logs.size
-    med = np.empty(n)
-    for i in range(n):
-        lo, hi = max(0, i - window), min(n, i + window + 1)
-        nb = np.r_[logs[lo:i], logs[i + 1:hi]]
-        med[i] = np.median(nb) if nb.size else logs[i]
-    dev = logs - med
-    scale = robust_scale(dev, floor=settings.size_floor if floor is None else floor)
-    if deficit_only:
-        return -dev > settings.k_flag * scale
-    return np.abs(dev) > settings.k_flag * scale
-
-
-def _release(idx, uv, settings, scatter):
-    """Position (in idx) of the first frame of free flight: after the run of frames at
-    the chain's start whose local acceleration differs from the flight's by more than
-    ``k_flag`` of its own standard error (``scatter`` times the fit's variance factor);
-    0 when the chain starts in flight."""
-    if idx.size < 4 * settings.path_window or not np.isfinite(scatter) or scatter <= 0:
-        return 0
-    # each frame's acceleration from it and the frames after it: the frames on the
-    # rotor bend it, those after the release do not
-    _pred, acc, _h, ha = local_quadratic(idx, uv, settings.path_window, leave_out=False,
-                                         leverage=True, ahead=True)
-    ref = np.nanmedian(acc[idx.size // 2:], axis=0)
-    err = scatter * np.sqrt(np.where(np.isfinite(ha) & (ha > 0), ha, np.inf))
-    z = np.hypot(*(acc - ref).T) / err
-    sharp = np.where(np.isfinite(z), z > settings.k_flag, False)
-    if not sharp[:3].any():
-        return 0
-    # the run of sharp frames from the start (a frame or two of noise inside it allowed)
-    end = int(np.flatnonzero(sharp[:3])[0])
-    for k in range(end + 1, idx.size // 2):
-        if sharp[k]:
-            end = k
-        elif k - end > 2:
-            break
-    return int(min(end + 1, idx.size - 1))
+    dev = logs - _neighbour_median(logs, window)
+    return dev / robust_scale(dev, floor=settings.size_floor if floor is None else floor)
 
 
 def judge(chain, detections, n, settings, *, find_release=True, residual=None,
@@ -138,29 +121,36 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
             flags[i] |= BORDER
     uv = np.column_stack([chain.u[idx], chain.v[idx]])
     release = None
-    grown = np.zeros(idx.size, bool)
+    # something touching the object (its detection grown, weight left outside its
+    # kernel), part of it hidden (its measured weight short of its neighbours')
+    touched = np.zeros(idx.size, bool)
+    hidden = np.zeros(idx.size, bool)
     if residual is not None:
-        grown |= residual_outliers(residual[idx], settings)
+        touched |= residual_outliers(residual[idx], settings)
     if weight is not None:
-        # the object's measured weight (its coverage inside its kernel) short of its
-        # neighbours': part of it hidden (more than its own is the residual's test)
-        grown |= _size_outliers(np.maximum(weight[idx], 1e-3), settings,
-                                4 * settings.path_window, floor=settings.weight_floor,
-                                deficit_only=True)
+        hidden |= _size_z(np.maximum(weight[idx], 1e-3), settings, 4 * settings.path_window,
+                          floor=settings.weight_floor) < -settings.k_flag
     for measure in (chain.size, chain.major, chain.minor):
-        grown |= _size_outliers(np.maximum(measure[idx], 0.3), settings,
-                                2 * settings.path_window)
+        z = _size_z(np.maximum(measure[idx], 0.3), settings, 2 * settings.path_window)
+        touched |= z > settings.k_flag
+        hidden |= z < -settings.k_flag
+    grown = touched | hidden
     flags[idx[grown]] |= APPEARANCE
     off, scatter = _path_outliers(idx, uv, settings, ~grown)
     flags[idx[off]] |= OUTLIER
     if find_release:
-        good = ~off & ~grown
-        on = idx[good]
-        start = _release(on, uv[good], settings, scatter)
-        if start > 0:
-            release = int(on[start])
+        # (the knot is fitted to the frames on the path, those touched by something
+        # included: the ride on a blade or in a hand is such a touch)
+        touched |= (flags[idx] & BORDER).astype(bool)
+        pos, _tau, note = release_knot(
+            idx.astype(float), uv, ~off, first_in_open=not touched[0],
+            window=settings.release_window, significance=settings.release_significance,
+            min_ratio=settings.release_ratio, attached=touched,
+            attached_within=float(settings.release_touch_frames))
+        if pos is not None and pos > 0:
+            release = int(idx[pos])
             flags[idx[idx < release]] |= PRE_RELEASE
-            notes.append(f"release: the path's sharp bend ends at frame position {release}")
+        notes.append(f"release: {note}")
     if chain.shadow[idx].mean() <= MAJORITY:
         flags[idx[chain.shadow[idx]]] |= APPEARANCE
     first, last = idx[0], idx[-1]

@@ -16,7 +16,7 @@ from vidtrack.errors import VidtrackError
 __all__ = ["TrackerSettings", "ALGORITHM_VERSION"]
 
 #: Changes whenever the flight tracker's results may change for the same settings.
-ALGORITHM_VERSION = "flight-1"
+ALGORITHM_VERSION = "flight-2"
 
 
 @dataclass(frozen=True)
@@ -112,6 +112,20 @@ class TrackerSettings:
         the object hidden is flagged.
     path_window : int
         Frames either side of a frame in its local path fit (frames).
+    release_window : int
+        The release is looked for among the chain's first ``release_window`` clean
+        frames (frames).
+    release_significance : float
+        A knot in the path's acceleration (:mod:`vidtrack.track.release`) counts when it
+        lowers the residual sum of squares by more than this many noise variances.
+    release_ratio : float
+        ... and when the acceleration just before it is at least this many times that of
+        the flight after it (the ride on a blade or in a hand is the strongly
+        accelerated part; dimensionless).
+    release_touch_frames : int
+        ... and when a frame where something touched the object (its appearance flagged)
+        lies within this many frames before it: an object flying free before the knot
+        was not released there (frames).
     """
 
     k_sigma: float = 5.0
@@ -140,6 +154,10 @@ class TrackerSettings:
     size_floor: float = 0.08
     weight_floor: float = 0.02
     path_window: int = 6
+    release_window: int = 80
+    release_significance: float = 25.0
+    release_ratio: float = 2.0
+    release_touch_frames: int = 10
 
     def __post_init__(self):
         for f in fields(self):
