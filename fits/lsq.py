@@ -8,10 +8,11 @@ Each axis is its own ODE (``fits.throw``), so each is fitted on its own:
 
 Bounded nonlinear least squares (``scipy.optimize.least_squares``, trust region
 reflective) in scaled variables, from several robust starting values (polynomial fits
-of the track). Standard errors and 95 % intervals come from the Jacobian at the solution
-under an error model fitted to the residuals: white noise plus an exponentially
-correlated part, by REML (:mod:`fits.errmodel`; tracking errors persist over many
-frames); a residual bootstrap is an option. What the track cannot determine is
+of the track), with the closed form's own derivatives as the Jacobian
+(:mod:`fits.throw.jacobian`). Standard errors and 95 % intervals come from the Jacobian
+at the solution under an error model fitted to the residuals: white noise plus an
+exponentially correlated part, by REML (:mod:`fits.errmodel`; tracking errors persist
+over many frames); a residual bootstrap is an option. What the track cannot determine is
 reported as not determined with the reason, never as a number:
 no descent in view (k2), no ascent (k1), no top view (k4), too few points, cp = 0 (k3
 and k4 have no effect), an interval that includes 0.
@@ -31,6 +32,7 @@ from fits.errmodel import fit_error_model
 from fits.errors import ConvergenceError, InputError
 from fits.lsq_results import AxisFit, Coefficient, ThrowFit, coefficient_rows
 from fits.throw import G_STANDARD, MODELS, flight_drag, flight_y
+from fits.throw.jacobian import flight_drag_jacobian, flight_y_jacobian
 
 __all__ = ["Coefficient", "AxisFit", "ThrowFit", "fit_throw", "compare_models",
            "coefficient_rows", "MIN_POINTS"]
@@ -49,6 +51,7 @@ class _Problem:
     axis: str
     names: tuple
     fun: object          # fun(t, params) -> positions
+    jac: object          # jac(t, params) -> (n, len(params)) d positions / d params
     lower: np.ndarray
     upper: np.ndarray
 
@@ -64,12 +67,15 @@ def _solve(problem, t, obs, starts):
         def resid(q, scale=scale):
             return problem.fun(t, q * scale) - obs
 
+        def jac(q, scale=scale):
+            return problem.jac(t, q * scale) * scale
+
         try:
             # a trial step may overflow: its residual is then not finite, which the
             # solver and the checks below handle; no warning for it
             with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
                 res = optimize.least_squares(
-                    resid, p0 / scale, method="trf",
+                    resid, p0 / scale, jac=jac, method="trf",
                     bounds=(problem.lower / scale, problem.upper / scale), x_scale="jac",
                     xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=2000)
         except (ValueError, FloatingPointError):
@@ -85,19 +91,6 @@ def _solve(problem, t, obs, starts):
             f"t = {t.min():.4g}..{t.max():.4g} s, position range "
             f"{np.ptp(obs):.4g} m")
     return best
-
-
-def _jacobian(fun, t, p, scale):
-    """Central-difference Jacobian in scaled variables (columns: d pos / d (p/scale))."""
-    q = p / scale
-    cols = []
-    for j in range(p.size):
-        h = 1e-6 * max(abs(q[j]), 1.0)
-        up, dn = q.copy(), q.copy()
-        up[j] += h
-        dn[j] -= h
-        cols.append((fun(t, up * scale) - fun(t, dn * scale)) / (2 * h))
-    return np.column_stack(cols)
 
 
 def _lag1_autocorrelation(t, r):
@@ -122,7 +115,7 @@ def _statistics(problem, t, obs, res, scale):
     n, k = obs.size, p.size
     dof = n - k
     rss = float(r @ r)
-    jac = _jacobian(problem.fun, t, p, scale)
+    jac = problem.jac(t, p) * scale      # in the scaled variables
     s = np.linalg.svd(jac, compute_uv=False)
     cond = float(s[0] / s[-1]) if s[-1] > 0 else np.inf
     if dof > 0 and s[-1] > s[0] * 1e-13:
@@ -192,6 +185,9 @@ def _fit_drag_axis(axis, t, obs, cp, g, model, frame_speed, n_boot, rng):
         def fun(tt, p):
             return flight_drag(tt, p[0], p[1], p[2], cp, g=g, model=model,
                                frame_speed=frame_speed)[0]
+
+        def jac(tt, p):
+            return flight_drag_jacobian(tt, p[0], p[1], p[2], cp, g=g, model=model)
         k0 = _drag_k_start(accel, v0, cp, g, model)
         starts = [(p_pos, v0, k0 * f) for f in (1.0, 0.2, 5.0)]
         lower = np.array([-np.inf, -np.inf, _K_BOUNDS[0]])
@@ -201,9 +197,12 @@ def _fit_drag_axis(axis, t, obs, cp, g, model, frame_speed, n_boot, rng):
 
         def fun(tt, p):
             return p[0] + (p[1] - frame_speed) * tt
+
+        def jac(tt, p):
+            return np.column_stack([np.ones_like(tt), tt])
         starts = [(p_pos, v0)]
         lower, upper = np.full(2, -np.inf), np.full(2, np.inf)
-    problem = _Problem(axis, names, fun, lower, upper)
+    problem = _Problem(axis, names, fun, jac, lower, upper)
     res, scale = _solve(problem, t, obs, starts)
     fit = _statistics(problem, t, obs, res, scale)
     if n_boot:
@@ -218,10 +217,20 @@ def _fit_y(t, obs, cp, g, model, n_boot, rng):
     def full(tt, p):
         return flight_y(tt, p[0], p[1], p[2], p[3], cp, g=g, model=model)[0]
 
+    def full_jac(tt, p):
+        return flight_y_jacobian(tt, p[0], p[1], p[2], p[3], cp, g=g, model=model)
+
+    def one_k(tt, q):       # one coefficient for ascent and descent: (y0, vy0, k)
+        return flight_y(tt, q[0], q[1], q[2], q[2], cp, g=g, model=model)[0]
+
+    def one_k_jac(tt, q):
+        j = flight_y_jacobian(tt, q[0], q[1], q[2], q[2], cp, g=g, model=model)
+        return np.column_stack([j[:, 0], j[:, 1], j[:, 2] + j[:, 3]])
+
     starts = [(y_start, v_start, k_start * a, k_start * b)
               for a in (1.0, 0.5, 2.0) for b in (1.0, 0.5, 2.0)]
     inf = np.inf
-    problem = _Problem("y", ("y0", "vy0", "k1", "k2"), full,
+    problem = _Problem("y", ("y0", "vy0", "k1", "k2"), full, full_jac,
                        np.array([-inf, -inf, _K_BOUNDS[0], _K_BOUNDS[0]]),
                        np.array([inf, inf, _K_BOUNDS[1], _K_BOUNDS[1]]))
     res, scale = _solve(problem, t, obs, starts)
@@ -232,18 +241,14 @@ def _fit_y(t, obs, cp, g, model, n_boot, rng):
     n_down = t.size - n_up
     if n_down < MIN_POINTS:
         # no descent in view: k2 has (almost) no effect; fit the ascent law alone
-        def ascent(tt, q):
-            return flight_y(tt, q[0], q[1], q[2], q[2], cp, g=g, model=model)[0]
-        problem = _Problem("y", ("y0", "vy0", "k1"), ascent, problem.lower[:3],
+        problem = _Problem("y", ("y0", "vy0", "k1"), one_k, one_k_jac, problem.lower[:3],
                            problem.upper[:3])
         res, scale = _solve(problem, t, obs, [p[:3], (y_start, v_start, k_start)])
         notes.append(f"k2: no descent observed ({n_down} points after the apex at "
                      f"t = {apex_t:.4g} s; at least {MIN_POINTS} needed)")
     elif p[1] <= 0 or n_up < MIN_POINTS:
         # no ascent in view: the descent law from the first point
-        def descent(tt, q):
-            return flight_y(tt, q[0], q[1], q[2], q[2], cp, g=g, model=model)[0]
-        problem = _Problem("y", ("y0", "vy0", "k2"), descent,
+        problem = _Problem("y", ("y0", "vy0", "k2"), one_k, one_k_jac,
                            problem.lower[[0, 1, 3]], np.array([inf, 0.0, _K_BOUNDS[1]]))
         res, scale = _solve(problem, t, obs, [(y_start, min(v_start, -1e-3), k_start)])
         why = ("thrown downward" if p[1] <= 0 else

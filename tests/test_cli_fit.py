@@ -552,6 +552,32 @@ def test_a_track_edited_through_hdf5_is_used_as_edited(vidtrack_cli, tmp_path, f
     assert (front["flags"].to_numpy()[100:200] & 64).all()
 
 
+@pytest.mark.parametrize("how", ["--profile", "python -m cProfile"])
+def test_a_run_can_be_profiled(tmp_path, fitted_run42, how):
+    """``vidtrack fit --profile FILE``, and cProfile round the command (the command does
+    not end the interpreter under a profiler): a profile pstats reads, with the fit in it."""
+    import pstats
+    import shutil
+
+    from conftest import run_vidtrack
+
+    run = tmp_path / "run"
+    shutil.copytree(fitted_run42, run)
+    (run / "vidtrack" / "fit.json").unlink()                 # tracks reused, fitted again
+    prof = tmp_path / "fit.prof"
+    if how == "--profile":
+        res = run_vidtrack("fit", "-q", "--no-report", run, "--profile", prof)
+    else:
+        res = subprocess.run([sys.executable, "-m", "cProfile", "-o", str(prof), "-m",
+                              "vidtrack", "fit", "-q", "--no-report", str(run)],
+                             capture_output=True, text=True, timeout=600,
+                             stdin=subprocess.DEVNULL)
+    assert res.returncode == 0, res.stderr
+    functions = {(Path(file).name, name) for file, _, name in pstats.Stats(str(prof)).stats}
+    assert ("lsq.py", "fit_throw") in functions
+    assert not list(tmp_path.glob(".fit.prof.*"))            # no temporary file left
+
+
 # ---------------------------------------------------------------- stale outputs (item 5)
 
 def test_a_refit_with_other_options_leaves_no_report_of_the_old_fit(vidtrack_cli, tmp_path):

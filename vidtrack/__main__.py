@@ -1,4 +1,6 @@
+import sys
+
 from vidtrack.cli import run
 
 if __name__ == "__main__":
-    run()
+    sys.exit(run())

@@ -4,6 +4,8 @@
   ``flight_y``, ``flight_drag`` — the stable closed forms (Chen 2018 eqs. 11-18, the
   linear-drag throw of Liao 2021, the drag-free throw), defined in
   ``fits.throw.closed_form``;
+- ``fits.throw.jacobian``: ``flight_y_jacobian``, ``flight_drag_jacobian``, the closed
+  forms' derivatives with respect to their parameters (the fit's Jacobian);
 - ``fits.throw.ode``: ``solve_throw``, the same laws integrated numerically (the reference
   every closed form is tested against);
 - ``fits.throw.printed``: ``printed_position``, the paper's equations as printed (for

@@ -26,6 +26,7 @@ Examples:
   vidtrack fit exp2016/runs/ --jobs 2
   vidtrack fit run42/ --json --model linear
   vidtrack fit run42/ --accept-disagreement
+  vidtrack fit run42/ --force --profile fit.prof     (then: python -m pstats fit.prof)
 """
 
 
@@ -57,6 +58,12 @@ def add_arguments(parser):
                              "the warning is printed and kept in fit.json")
     parser.add_argument("--json", action="store_true",
                         help="print the fit.json record(s) to stdout (a list for several runs)")
+    parser.add_argument("--profile", metavar="FILE",
+                        help="write a cProfile of the command to FILE (read it with python "
+                             "-m pstats FILE); it covers this process only: the view "
+                             "tracked by the worker process (with the report's plots it "
+                             "draws) and the runs of --jobs or --scheduler are not in it, "
+                             "e.g. --profile fit.prof")
 
 
 def format_records(records):
@@ -92,11 +99,14 @@ def run(args):
     import logging
     import sys
 
+    from vidtrack._atomic import check_output
     from vidtrack._text import printable
     from vidtrack.run.pipeline import FitOptions, check_counts, find_runs, fit_runs
 
     check_counts(jobs=args.jobs, bootstrap=args.bootstrap, seed=args.seed)
     runs = find_runs(args.runs)
+    if args.profile:
+        check_output(args.profile, inputs=runs, label=f"--profile {args.profile}")
     options = FitOptions(model=args.model, bootstrap=args.bootstrap, seed=args.seed,
                          force=args.force, report=not args.no_report, quiet=args.quiet,
                          view_process=True, accept_disagreement=args.accept_disagreement)
@@ -110,7 +120,7 @@ def run(args):
             print(f"  fitted {printable(record['run'])}", file=sys.stderr)
 
     try:
-        with sigterm_as_interrupt():
+        with sigterm_as_interrupt(), profiled(args.profile):
             # every run is checked before any is tracked (fit_runs: prepare_runs)
             records = fit_runs(runs, options, jobs=args.jobs, scheduler=args.scheduler,
                                progress=progress)
@@ -128,6 +138,30 @@ def run(args):
 INTERRUPTED = ("interrupted; every file in the runs' vidtrack/ folders is whole (the "
                "unfinished stage left none) and finished stages are reused: run the same "
                "command again to finish")
+
+
+@contextlib.contextmanager
+def profiled(path):
+    """cProfile what runs inside, the statistics written to ``path`` on the way out.
+
+    Written whole or not at all, also when the fit fails or is interrupted (its profile
+    is then of what ran); ``path`` None profiles nothing.
+    """
+    if path is None:
+        yield
+        return
+    import cProfile
+
+    from vidtrack._atomic import atomic_path
+
+    profiler = cProfile.Profile()
+    profiler.enable()
+    try:
+        yield
+    finally:
+        profiler.disable()
+        with atomic_path(path) as tmp:
+            profiler.dump_stats(tmp)
 
 
 @contextlib.contextmanager
