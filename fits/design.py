@@ -296,7 +296,7 @@ def central_composite(factors, *, alpha="rotatable", centre_points=6, rng=None):
     >>> d = central_composite([Factor("A", "n_rpm", 550, 100), Factor("B", "blade_angle_deg",
     ...                        0, 5), Factor("C", "speed_kmh", 7.2, 1.8)], alpha=2,
     ...                       centre_points=18, rng=1)
-    >>> len(d.table), d.table["n_rpm"].min(), d.table["speed_kmh"].max()
+    >>> len(d.table), float(d.table["n_rpm"].min()), float(d.table["speed_kmh"].max())
     (32, 350.0, 10.8)
     """
     factors = tuple(factors)

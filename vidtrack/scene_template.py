@@ -498,8 +498,9 @@ def write_scene_template(run_dir, *, front=None, top=None):
     SceneError
         ``run_dir`` missing or not a folder; a ``scene.toml`` already there (never
         overwritten, except one that ``vidtrack design`` wrote, which has no views yet:
-        its ``[run]`` and ``[factors]`` are kept in the file written); no footage; footage whose view cannot be told from its name (the
-        message shows the flags to give); a given FILE that does not exist.
+        its ``[run]`` and ``[factors]`` are kept in the file written); no footage;
+        footage whose view cannot be told from its name (the message shows the flags to
+        give); a given FILE that does not exist.
     SourceError
         Footage that cannot be opened.
     """
