@@ -15,8 +15,10 @@ and ``vidtrack fit`` does not run, until they are filled in::
 >>> t.path, t.views["front"].frames, t.views["front"].fps_container   # doctest: +SKIP
 (PosixPath('runs/07/scene.toml'), 372, 30.0)
 
-The file is written whole or not at all, and never over an existing ``scene.toml``;
-nothing else in the folder is written or changed.
+The file is written whole or not at all, and never over an existing ``scene.toml`` but
+one that :func:`plan_scene_text` wrote (``vidtrack design``: a planned run's factors and no
+views yet), whose ``[run]`` and ``[factors]`` the template keeps; nothing else in the
+folder is written or changed.
 """
 
 import json
