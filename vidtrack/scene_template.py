@@ -15,8 +15,10 @@ and ``vidtrack fit`` does not run, until they are filled in::
 >>> t.path, t.views["front"].frames, t.views["front"].fps_container   # doctest: +SKIP
 (PosixPath('runs/07/scene.toml'), 372, 30.0)
 
-The file is written whole or not at all, and never over an existing ``scene.toml``;
-nothing else in the folder is written or changed.
+The file is written whole or not at all, and never over an existing ``scene.toml`` but
+one that :func:`plan_scene_text` wrote (``vidtrack design``: a planned run's factors and no
+views yet), whose ``[run]`` and ``[factors]`` the template keeps; nothing else in the
+folder is written or changed.
 """
 
 import json
@@ -28,7 +30,7 @@ from vidtrack._atomic import atomic_path
 from vidtrack.errors import SceneError
 
 __all__ = ["write_scene_template", "find_footage", "SceneTemplate", "FootageFacts",
-           "VIDEO_SUFFIXES", "TODO"]
+           "VIDEO_SUFFIXES", "TODO", "plan_scene_text", "PLAN_MARK"]
 
 #: Files taken for videos when a run folder is searched (any other file is not footage).
 VIDEO_SUFFIXES = (".avi", ".mp4", ".m4v", ".mov", ".mkv", ".wmv", ".mpg", ".mpeg", ".webm",
@@ -341,45 +343,139 @@ def _view_table(f, throws):
     return out
 
 
-def _template_text(run_dir, views, throws):
+#: The commented [physics], [straw] and [machine] tables of every template.
+_STRAW_AND_MACHINE = (
+    _line("[physics]", "the defaults:"),
+    "# gravity_m_s2 = 9.80665",
+    "# air_density_kg_m3 = 1.205",
+    "",
+    _line("[straw]", "the drag parameter Cp in s/m (1/Cp: the terminal speed)."),
+    _line("", "vidtrack fit needs it (except with --model free), and k3"),
+    _line("", "and k4 are only as right as Cp. Give it directly:"),
+    "# cp_s_per_m = 0.115",
+    _line("", "or the straw's data, Cp = sqrt(C a_s rho / (2 m g)):"),
+    "# mass_kg = 0.080",
+    _line("# area_m2 = 0.0172", "the average characteristic area a_s"),
+    "# drag_coefficient = 1.0",
+    "",
+    "[machine]",
+    _line("# speed_kmh = 7.2", "the machine's travel speed v1 (the cameras ride on it);"),
+    _line("", "default: factors.speed_kmh, else 0 (standing still)"),
+)
+
+
+def _toml_value(value):
+    """A factor's value as TOML: a whole number without a decimal point, a string quoted."""
+    if isinstance(value, str):
+        return _toml_string(value)
+    if float(value).is_integer() and abs(value) < 2 ** 53:
+        return str(int(value))
+    return repr(float(value))
+
+
+def _run_and_factors(run_dir, plan):
+    """The [run] and [factors] tables: commented examples, or a plan's real values."""
+    run_name = (plan or {}).get("run", {}).get("name")
+    lines = ["[run]"]
+    if run_name is not None:
+        lines.append(_line(f"name = {_toml_string(run_name)}", "its name in tables and reports"))
+    else:
+        lines.append(_line(f"# name = {_toml_string(Path(run_dir).resolve().name)}",
+                           "its name in tables and reports; default: the folder's"))
+    lines.append("")
+    factors = (plan or {}).get("factors")
+    if factors:
+        lines += [_line("[factors]", "this run's setting of the experiment's factors"),
+                  _line("", "(natural units), from `vidtrack design`")]
+        lines += [f"{name} = {_toml_value(v)}" for name, v in factors.items()]
+    else:
+        lines += [
+            _line("[factors]", "the experiment's factors (free names, natural units),"),
+            _line("", "copied to fit.json and the experiment's tables, e.g.:"),
+            "# n_rpm = 550",
+            "# blade_angle_deg = 0",
+            _line("# speed_kmh = 7.2", "also the default of [machine] speed_kmh"),
+        ]
+    return lines + [""]
+
+
+def _template_text(run_dir, views, throws, *, plan=None):
     first = (f"throws/{throws[0].name}/" if throws else "")
     lines = [
         "# vidtrack scene, schema 1 (docs/scene.md lists every key).",
-        f"# Written by `vidtrack init` from the footage found in {first or 'this folder'}.",
+        f"# Written by `vidtrack init` from the footage found in {first or 'this folder'}"
+        + (", and [run] and [factors] from `vidtrack design`." if plan else "."),
         f"# Fill in every line marked {TODO}: vidtrack refuses this file (and `vidtrack fit`",
         "# does not run) until they hold real values.",
         "schema = 1",
         "",
-        "[run]",
-        _line(f"# name = {_toml_string(Path(run_dir).resolve().name)}",
-              "its name in tables and reports; default: the folder's"),
-        "",
-        _line("[factors]", "the experiment's factors (free names, natural units),"),
-        _line("", "copied to fit.json and the experiment's tables, e.g.:"),
-        "# n_rpm = 550",
-        "# blade_angle_deg = 0",
-        _line("# speed_kmh = 7.2", "also the default of [machine] speed_kmh"),
-        "",
-        _line("[physics]", "the defaults:"),
-        "# gravity_m_s2 = 9.80665",
-        "# air_density_kg_m3 = 1.205",
-        "",
-        _line("[straw]", "the drag parameter Cp in s/m (1/Cp: the terminal speed)."),
-        _line("", "vidtrack fit needs it (except with --model free), and k3"),
-        _line("", "and k4 are only as right as Cp. Give it directly:"),
-        "# cp_s_per_m = 0.115",
-        _line("", "or the straw's data, Cp = sqrt(C a_s rho / (2 m g)):"),
-        "# mass_kg = 0.080",
-        _line("# area_m2 = 0.0172", "the average characteristic area a_s"),
-        "# drag_coefficient = 1.0",
-        "",
-        "[machine]",
-        _line("# speed_kmh = 7.2", "the machine's travel speed v1 (the cameras ride on it);"),
-        _line("", "default: factors.speed_kmh, else 0 (standing still)"),
+        *_run_and_factors(run_dir, plan),
+        *_STRAW_AND_MACHINE,
     ]
     for f in views.values():
         lines += [""] + _view_table(f, throws)
+    return _joined(lines)
+
+
+def _joined(lines):
     return "\n".join(line.rstrip() if line.strip() else "" for line in lines) + "\n"
+
+
+#: The first line of a scene.toml that `vidtrack design` writes: `vidtrack init` completes
+#: such a file (it has no views yet) instead of refusing it.
+PLAN_MARK = "# vidtrack scene, schema 1: a run of a designed experiment, not filmed yet."
+
+
+def plan_scene_text(factors, *, folder, run_name=None, about=()):
+    """The scene.toml of a planned run: its factor settings, no views yet.
+
+    Parameters
+    ----------
+    factors : dict of str to float
+        The run's setting in natural units, by factor name (``{"n_rpm": 450, ...}``).
+    folder : str or os.PathLike, keyword-only
+        The run folder (its name is the run's default name).
+    run_name : str, optional
+        ``[run] name`` (default: none written, so the folder's name).
+    about : sequence of str, keyword-only
+        Comment lines on the run (its place in the design).
+
+    Returns
+    -------
+    str
+        The text. It has no ``[views]``, so vidtrack refuses it (``views is required``)
+        until the run is filmed and ``vidtrack init RUN`` has added the views from the
+        footage found in the folder (keeping ``[run]`` and ``[factors]``).
+    """
+    plan = {"factors": dict(factors)}
+    if run_name is not None:
+        plan["run"] = {"name": run_name}
+    lines = [
+        PLAN_MARK,
+        *_comment_block([*about, "Written by `vidtrack design` (docs/scene.md lists every "
+                         "key). Film the run into this folder, then run `vidtrack init` "
+                         "on it: it adds the views from the footage found here and keeps "
+                         "[run] and [factors]."]),
+        "schema = 1",
+        "",
+        *_run_and_factors(folder, plan),
+        *_STRAW_AND_MACHINE,
+    ]
+    return _joined(lines)
+
+
+def _plan_of(target):
+    """The [run] and [factors] of a scene.toml `vidtrack design` wrote, else None."""
+    import tomllib
+
+    try:
+        text = target.read_text(encoding="utf-8")
+        data = tomllib.loads(text)
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    if not text.startswith(PLAN_MARK) or "views" in data:
+        return None
+    return {k: data[k] for k in ("run", "factors") if isinstance(data.get(k), dict)}
 
 
 def write_scene_template(run_dir, *, front=None, top=None):
@@ -403,8 +499,10 @@ def write_scene_template(run_dir, *, front=None, top=None):
     ------
     SceneError
         ``run_dir`` missing or not a folder; a ``scene.toml`` already there (never
-        overwritten); no footage; footage whose view cannot be told from its name (the
-        message shows the flags to give); a given FILE that does not exist.
+        overwritten, except one that ``vidtrack design`` wrote, which has no views yet:
+        its ``[run]`` and ``[factors]`` are kept in the file written); no footage;
+        footage whose view cannot be told from its name (the message shows the flags to
+        give); a given FILE that does not exist.
     SourceError
         Footage that cannot be opened.
     """
@@ -416,9 +514,11 @@ def write_scene_template(run_dir, *, front=None, top=None):
         raise SceneError(f"{run_dir}: not a folder (expected the run folder that holds the "
                          "footage)")
     target = run_dir / "scene.toml"
-    if target.exists():
+    plan = _plan_of(target) if target.is_file() else None
+    if target.exists() and plan is None:
         raise SceneError(f"{target} already exists; vidtrack init never overwrites it (edit "
                          "it, or move it away to start again)")
+    planned = target.read_bytes() if plan is not None else None
     from vidtrack.scene import find_throw_dirs
 
     throws = find_throw_dirs(run_dir)
@@ -435,7 +535,7 @@ def write_scene_template(run_dir, *, front=None, top=None):
     views = {}
     for view, path in paths.items():
         views[view] = _facts(view, path, _source_text(path, base, throws))
-    text = _template_text(run_dir, views, throws)
+    text = _template_text(run_dir, views, throws, plan=plan)
     if throws:
         missing = [f"{d.name}/{f.source_text}" for d in throws[1:] for f in views.values()
                    if not (d / f.source_text).exists()]
@@ -446,6 +546,9 @@ def write_scene_template(run_dir, *, front=None, top=None):
     todo = tuple(f"views.{v}.{k}" for v in views for k in ("fps", "axes", "origin_px", "scale"))
     with atomic_path(target) as tmp:
         tmp.write_text(text, encoding="utf-8")
-        if target.exists():            # appeared meanwhile: still never overwritten
+        # appeared or changed meanwhile: still never overwritten (a plan of `vidtrack
+        # design` is completed only as it was read)
+        if (target.read_bytes() if target.is_file() else None) != planned \
+                or (planned is None and target.exists()):
             raise SceneError(f"{target} already exists; vidtrack init never overwrites it")
     return SceneTemplate(path=target, views=views, todo=todo, unused=unused, text=text)

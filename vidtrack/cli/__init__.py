@@ -35,7 +35,8 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
     os.environ.setdefault(_var, "1")
 
 #: Subcommands in the order ``vidtrack --help`` lists them (module names in this package).
-COMMANDS = ("init", "fit", "overlay", "report", "anova", "predict", "synth", "frames",
+COMMANDS = ("design", "init", "fit", "overlay", "report", "anova", "predict", "synth",
+            "frames",
             "calibrate", "bench")
 
 

@@ -20,7 +20,9 @@ the scale (a ruler, or m_per_px). The marked values are ones vidtrack refuses, s
 they are real. Set the straw's Cp in [straw] too (needed for k3 and k4), and
 [machine] speed_kmh if the machine moved.
 
-An existing scene.toml is never overwritten; nothing else in RUN is written or changed.
+An existing scene.toml is never overwritten, except the one 'vidtrack design' wrote for a
+planned run (no views yet): its [run] and [factors] are kept in the template. Nothing
+else in RUN is written or changed.
 
 Examples:
   vidtrack init runs/07
