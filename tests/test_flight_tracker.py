@@ -263,6 +263,22 @@ def test_run42_fitted_with_the_flight_tracker(tmp_path, vidtrack_cli):
     got = assert_k_within(record, truth["k"])
     print("\nrun42 with the flight tracker: " + ", ".join(
         f"{k} {c['value']:.4g} (truth {truth['k'][k]:.4g})" for k, c in got.items()))
+    # each frame's reason, in tracks.h5 and tracks.csv alike: empty where the tracker
+    # left the frame clean, known codes where it flagged it
+    import pandas as pd
+
+    from vidtrack.run.tracks_file import read_tracks
+    from vidtrack.track.flag import REASONS
+
+    table = pd.read_csv(run / "vidtrack" / "tracks.csv", keep_default_na=False)
+    h5 = read_tracks(run / "vidtrack" / "tracks.h5").tracks
+    for view in ("front", "top"):
+        rows = table[table["view"] == view]
+        assert rows["reason"].tolist() == h5[view].data["reason"].tolist()
+        assert {c for r in rows["reason"] for c in r.split("+") if c} <= set(REASONS)
+        # (a flag set after tracking, where the views are merged, has no tracker reason)
+        assert not ((rows["flags"] == 0) & (rows["reason"] != "")).any()
+    assert (table["reason"] != "").any()
     # the same folder with the rules tracker: tracked again, not the flight's tracks reused
     scene = run / "scene.toml"
     scene.write_text(scene.read_text().replace('engine = "flight"', 'engine = "rules"'))
@@ -272,3 +288,33 @@ def test_run42_fitted_with_the_flight_tracker(tmp_path, vidtrack_cli):
     rules = json.loads(again.stdout)
     rules = rules[0] if isinstance(rules, list) else rules
     assert rules["coefficients"]["k1"]["value"] != record["coefficients"]["k1"]["value"]
+
+
+def test_corrections_say_manual_and_excluded_in_the_reason():
+    """A person's corrections keep a flight track's reasons true: a point placed by hand
+    says ``manual`` (its flags cleared), an excluded frame adds ``excluded``."""
+    from pathlib import Path
+
+    import pandas as pd
+
+    from vidtrack.scene.corrections import ManualPoints
+    from vidtrack.track.corrections import apply_corrections
+    from vidtrack.track.tracker import EXCLUDED, OUTLIER, Track
+
+    n = 6
+    data = pd.DataFrame({"frame": np.arange(n), "t_s": np.arange(n) / 100.0,
+                         "u_px": np.arange(n, dtype=float), "v_px": np.zeros(n),
+                         "area_px": np.ones(n), "angle_rad": np.zeros(n),
+                         "length_px": np.ones(n),
+                         "flags": np.array([0, OUTLIER, 0, OUTLIER, 0, 0], np.int32),
+                         "reason": np.array(["", "off-path", "", "off-path", "", ""],
+                                            dtype=object)})
+    tr = Track(data=data, view="front", release_frame=None, release_note="",
+               release_t_s=None, fps=100.0, frame_shape=(10, 10), noise_sigma=1.0,
+               k_sigma=5.0, straw_level=1.0, scatter_px=0.1)
+    manual = ManualPoints(path=Path("m.csv"), frames=(1,), u_px=(1.5,), v_px=(0.0,),
+                          sha256="")
+    out = apply_corrections(tr, exclude_frames=[(3, 5)], manual=manual).data
+    assert out["reason"].tolist() == ["", "manual", "", "off-path+excluded", "excluded", ""]
+    assert out["flags"].tolist() == [0, 0, 0, OUTLIER | EXCLUDED, EXCLUDED, 0]
+    assert tr.data["reason"].tolist()[1] == "off-path"     # the input is not changed

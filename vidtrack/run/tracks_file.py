@@ -9,7 +9,9 @@ Layout (HDF5, written with h5py, whole or not at all)::
                       area_px, angle_rad, length_px (float64), flags (int32),
                       manual (uint8 0/1; only in a view with points placed by hand),
                       camera_du_px, camera_dv_px (float64; only in a view whose
-                      shaking camera was steadied)
+                      shaking camera was steadied), reason (UTF-8 strings: which
+                      test flagged the frame, vidtrack.track.flag.REASONS, "+"-joined;
+                      only from the flight tracker)
                       attrs: release_frame (-1: none), release_t_s (NaN: none),
                              release_note, fps, frame_shape, noise_sigma, k_sigma,
                              straw_level, scatter_px, notes (JSON)
@@ -64,6 +66,9 @@ _TRACKS_CSV_FIRST = ("view", "frame", "t_s", "u_px", "v_px", "flags")
 #: A view's boolean column (dataset, in tracks.h5 as 0/1) of points placed by hand; only
 #: in a view that has some (vidtrack.track.corrections).
 _MANUAL = "manual"
+#: A view's per-frame reason codes (the flight tracker's; in tracks.h5 as UTF-8
+#: strings): which test flagged the frame, ``+``-joined, empty when clean.
+_REASON = "reason"
 
 
 @dataclass(frozen=True, eq=False)
@@ -234,6 +239,9 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
                 if c in d:
                     # a shaking camera's shift (a steadied view only)
                     _dataset(g, c, d[c].to_numpy(dtype=np.float64))
+            if _REASON in d:
+                g.create_dataset(_REASON, data=d[_REASON].astype(str).to_numpy(dtype=object),
+                                 dtype=h5py.string_dtype())
             g.attrs["release_frame"] = -1 if tr.release_frame is None else int(
                 tr.release_frame)
             g.attrs["release_t_s"] = _num(tr.release_t_s)
@@ -336,6 +344,8 @@ def read_tracks(path):
             for c in CAMERA_COLUMNS:
                 if c in g:
                     cols[c] = g[c][()]
+            if _REASON in g:
+                cols[_REASON] = g[_REASON].asstr()[()].astype(object)
             n = {c: len(a) for c, a in cols.items()}
             if len(set(n.values())) != 1:
                 raise TrackError(f"{path}: /{v} datasets differ in length: {n}")
@@ -427,7 +437,8 @@ def tracks_table(tracks, *, calibrated=False):
         view's camera shift; only when a view has one, NaN in the others), and
         ``flag_names`` (the set bits' names in
         upper case, in bit order, joined by ``|``, e.g. ``MERGED|PRE_RELEASE``; empty
-        when unflagged).
+        when unflagged), then ``reason`` (the flight tracker's reason codes,
+        :data:`vidtrack.track.flag.REASONS`, ``+``-joined; only when a view has them).
 
     Raises
     ------
@@ -442,7 +453,9 @@ def tracks_table(tracks, *, calibrated=False):
     columns = list(_TRACKS_CSV_FIRST) + [c for c in TRACK_COLUMNS
                                          if c not in _TRACKS_CSV_FIRST]
     camera = any(CAMERA_COLUMNS[0] in tracks[v].data for v in tracks)
-    columns += [_MANUAL] * manual + list(CAMERA_COLUMNS) * camera + ["flag_names"]
+    reason = any(_REASON in tracks[v].data for v in tracks)
+    columns += ([_MANUAL] * manual + list(CAMERA_COLUMNS) * camera + ["flag_names"]
+                + [_REASON] * reason)
     parts = []
     for v in _view_order(tracks):
         d = tracks[v].data
@@ -458,6 +471,9 @@ def tracks_table(tracks, *, calibrated=False):
             part[c] = (d[c].to_numpy(dtype=np.float64) if c in d
                        else np.full(len(d), np.nan))
         part["flag_names"] = _flag_names(part["flags"])
+        if reason:
+            part[_REASON] = (d[_REASON].astype(str).to_numpy(dtype=object) if _REASON in d
+                             else np.full(len(d), "", dtype=object))
         parts.append(pd.DataFrame(part, columns=columns))
     if not parts:
         return pd.DataFrame({c: [] for c in columns})

@@ -13,6 +13,9 @@ triangulated, so tracks.h5 and tracks.csv show them:
   tracked) is added as a row, its time ``frame / fps`` on the view's clock and its
   measurements (area, angle, length) NaN.
 
+A track with reason codes (the flight tracker's ``reason`` column) says ``manual`` for a
+manual point and adds ``excluded`` to an excluded frame's.
+
 The design keeps "usable" what it always was, flags 0 and a finite position
 (:attr:`Track.usable`): nothing that reads the flags needs to know about manual points.
 Only a later stage can flag a manual point again: the merge flags every view's frames
@@ -23,6 +26,7 @@ import dataclasses
 
 import numpy as np
 
+from vidtrack.track.flag import REASON_COLUMN
 from vidtrack.track.tracker import EXCLUDED
 
 __all__ = ["apply_corrections", "MANUAL_COLUMN"]
@@ -82,6 +86,10 @@ def apply_corrections(track, *, exclude_frames=(), manual=None):
         mark[rows] = True
         data["u_px"], data["v_px"], data["flags"] = u, v, flags
         data[MANUAL_COLUMN] = mark
+        if REASON_COLUMN in data:
+            reason = data[REASON_COLUMN].astype(object).to_numpy().copy()
+            reason[rows] = "manual"
+            data[REASON_COLUMN] = reason
     if exclude_frames:
         frame_ix = data["frame"].to_numpy(dtype=np.int64)
         out = np.zeros(len(data), dtype=bool)
@@ -90,6 +98,11 @@ def apply_corrections(track, *, exclude_frames=(), manual=None):
         flags = data["flags"].to_numpy().copy()
         flags[out] |= EXCLUDED
         data["flags"] = flags
+        if REASON_COLUMN in data:
+            reason = data[REASON_COLUMN].astype(object).to_numpy().copy()
+            reason[out] = [f"{r}+excluded" if r and r != "manual" else "excluded"
+                           for r in reason[out]]
+            data[REASON_COLUMN] = reason
         if MANUAL_COLUMN in data:          # an excluded frame is not a manual point
             mark = data[MANUAL_COLUMN].to_numpy(dtype=bool).copy()
             mark[out] = False

@@ -40,15 +40,28 @@ from vidtrack.track.measure import residual_outliers
 from vidtrack.track.path import local_quadratic, robust_scale
 from vidtrack.track.release import find_release as release_knot
 
-__all__ = ["judge", "REASONS"]
+__all__ = ["judge", "REASONS", "REASON_COLUMN", "reason_codes"]
+
+#: The per-frame column of a track (and dataset of tracks.h5, column of tracks.csv)
+#: holding each frame's reason codes.
+REASON_COLUMN = "reason"
 
 #: The median of the distance of a 2-D normal point from its centre, in its sigmas: a
 #: distance's median over this is the per-axis scatter.
 RAYLEIGH_MEDIAN = 1.1774100225154747
 
-#: A short reason code per flag bit, for tracks.csv.
-REASONS = {BORDER: "border", LOST: "lost", OUTLIER: "off-path", APPEARANCE: "appearance",
-           PRE_RELEASE: "pre-release"}
+#: The reason codes of a frame (tracks.h5 and tracks.csv's ``reason``, in this order,
+#: joined by ``+``): more than the flag bits say, which test flagged it.
+REASONS = {"lost": "no detection of the object in this frame (LOST)",
+           "border": "the object touches the frame's border (BORDER)",
+           "pre-release": "before the release found in the path (PRE_RELEASE)",
+           "touched": "something touches the object: its detection grown at a stroke, or "
+                      "weight near it outside its kernel (APPEARANCE)",
+           "hidden": "part of the object hidden: its size or measured weight shrunk at a "
+                     "stroke (APPEARANCE)",
+           "shadow": "shadow-like in a chain that is not (APPEARANCE)",
+           "off-path": "off the local path of its neighbours (OUTLIER)",
+           "blade": "where the blade sweeps (BLADE)"}
 
 
 def _path_outliers(idx, uv, settings, start):
@@ -109,12 +122,16 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     scatter_px : float
         Robust scatter of the clean frames about their local path.
     notes : list of str
+    reasons : dict of str to numpy.ndarray of bool
+        Per code of :data:`REASONS` (but ``blade``), the frames it applies to.
     """
     flags = np.full(n, LOST, np.int64)
     idx = chain.frames
     notes = []
+    reasons = {code: np.zeros(n, bool) for code in REASONS if code != "blade"}
     if idx.size == 0:
-        return flags, None, float("nan"), notes
+        reasons["lost"][:] = True
+        return flags, None, float("nan"), notes, reasons
     flags[idx] = 0
     for i in idx:
         if detections[i][chain.pick[i]]["border"]:
@@ -138,6 +155,9 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     flags[idx[grown]] |= APPEARANCE
     off, scatter = _path_outliers(idx, uv, settings, ~grown)
     flags[idx[off]] |= OUTLIER
+    reasons["touched"][idx[touched]] = True
+    reasons["hidden"][idx[hidden]] = True
+    reasons["off-path"][idx[off]] = True
     if find_release:
         # (the knot is fitted to the frames on the path, those touched by something
         # included: the ride on a blade or in a hand is such a touch)
@@ -150,10 +170,27 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
         if pos is not None and pos > 0:
             release = int(idx[pos])
             flags[idx[idx < release]] |= PRE_RELEASE
+            reasons["pre-release"][idx[idx < release]] = True
         notes.append(f"release: {note}")
     if chain.shadow[idx].mean() <= MAJORITY:
         flags[idx[chain.shadow[idx]]] |= APPEARANCE
+        reasons["shadow"][idx[chain.shadow[idx]]] = True
     first, last = idx[0], idx[-1]
     flags[:first] = LOST
     flags[last + 1:] = LOST
-    return flags, release, scatter, notes
+    reasons["lost"] = (flags & LOST).astype(bool)
+    reasons["border"] = (flags & BORDER).astype(bool)
+    return flags, release, scatter, notes, reasons
+
+
+def reason_codes(reasons, n):
+    """Each frame's reason: the codes of :data:`REASONS` that apply, in that order,
+    joined by ``+`` (empty for a clean frame)."""
+    out = np.full(n, "", dtype=object)
+    for code in REASONS:
+        hit = reasons.get(code)
+        if hit is None:
+            continue
+        for i in np.flatnonzero(hit):
+            out[i] = f"{out[i]}+{code}" if out[i] else code
+    return out

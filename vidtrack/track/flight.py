@@ -31,7 +31,7 @@ from vidtrack.track._flags import BLADE
 from vidtrack.track.background import estimate_background, sample_background, sample_indices
 from vidtrack.track.choose import choose
 from vidtrack.track.detect import Detector
-from vidtrack.track.flag import judge
+from vidtrack.track.flag import REASON_COLUMN, judge, reason_codes
 from vidtrack.track.link import link
 from vidtrack.track.measure import chain_shape, measure_frame
 from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
@@ -193,7 +193,7 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
         raise TrackError(f"{name}: {err}") from None
     moments, residual = _measure(source, held, detector, detections, chain, settings, cancel)
     del held
-    flags, release, scatter, notes = judge(chain, detections, n, settings,
+    flags, release, scatter, notes, reasons = judge(chain, detections, n, settings,
                                            find_release=view != "top", residual=residual,
                                            weight=moments[:, 0])
     u, v = chain.u.copy(), chain.v.copy()
@@ -210,11 +210,13 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
         length[i] = np.sqrt(12.0 * max(lam, 0.0))
         contrast.append(float(d["contrast"]))
     mask = _blade_mask(blade_region, source.shape)
+    reasons["blade"] = np.zeros(n, bool)
     if mask is not None:
         for i in chain.frames:
             r, c = int(round(v[i])), int(round(u[i]))
             if 0 <= r < mask.shape[0] and 0 <= c < mask.shape[1] and mask[r, c]:
                 flags[i] |= BLADE
+                reasons["blade"][i] = True
     times = np.asarray(source.times_s)[:n]
     notes = [f"tracker: {ALGORITHM_VERSION}; {len(tracklets)} tracklets, "
              f"{len(others) + 1} chains considered; {chain.frames.size} frames in the "
@@ -230,7 +232,8 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     first = int(chain.frames[0])
     rel_pos = release if release is not None else (None if view == "top" else first)
     columns = {"frame": fnums, "t_s": times, "u_px": u, "v_px": v, "area_px": area,
-               "angle_rad": angle, "length_px": length, "flags": flags.astype(np.int32)}
+               "angle_rad": angle, "length_px": length, "flags": flags.astype(np.int32),
+               REASON_COLUMN: reason_codes(reasons, n)}
     return dict(columns=columns, view=view,
                 release_frame=None if rel_pos is None else int(fnums[rel_pos]),
                 release_note=rel_note,

@@ -130,7 +130,8 @@ class Track:
         towards +v, in (-pi/2, pi/2]), ``length_px`` (``sqrt(12 lambda_max)`` of the
         coverage's second moments: a rod's length), ``flags`` (see the module); and
         ``manual`` (bool: the point was placed by hand, flags 0) when the scene gives
-        manual points for the view.
+        manual points for the view; ``reason`` (str: which test flagged the frame,
+        :data:`vidtrack.track.flag.REASONS`) from the flight tracker.
     view : str or None
         ``"front"``, ``"top"`` or None.
     release_frame : int or None
