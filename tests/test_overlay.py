@@ -235,3 +235,142 @@ def test_projected_path_on_truth_perspective(tmp_path, vidtrack_cli):
     assert set(errs) == {"cam1", "cam2"}
     for name, (e, n) in errs.items():
         assert n > 150 and e.max() < 0.5, (name, n, e.max())
+
+
+# ------------------------------------------------ H.264, the trail and the scene
+
+def fourcc(path):
+    cap = cv2.VideoCapture(str(path))
+    try:
+        code = int(cap.get(cv2.CAP_PROP_FOURCC))
+    finally:
+        cap.release()
+    return code.to_bytes(4, "little").decode("latin-1").lower()
+
+
+def top_level_boxes(path):
+    """The MP4's top-level box types in file order (ISO/IEC 14496-12: size, type)."""
+    data = Path(path).read_bytes()
+    boxes, at = [], 0
+    while at + 8 <= len(data):
+        size = int.from_bytes(data[at:at + 4], "big")
+        kind = data[at + 4:at + 8].decode("latin-1")
+        if size == 1:
+            size = int.from_bytes(data[at + 8:at + 16], "big")
+        boxes.append(kind)
+        if size < 8:
+            break
+        at += size
+    return boxes
+
+
+def ffmpeg_says(path):
+    """What the bundled ffmpeg reports about a file's video stream (``ffmpeg -i``)."""
+    import subprocess
+
+    import imageio_ffmpeg
+
+    res = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-i", str(path)],
+                         capture_output=True, text=True)
+    return next(line for line in res.stderr.splitlines() if "Video:" in line)
+
+
+def test_overlay_is_h264_mp4_a_browser_plays(drawn):
+    run, _ = drawn
+    for view in ("front", "top"):
+        out = run / "vidtrack" / f"overlay_{view}.mp4"
+        assert fourcc(out) in ("h264", "avc1")
+        stream = ffmpeg_says(out)
+        assert "h264" in stream and "yuv420p" in stream, stream
+        boxes = top_level_boxes(out)
+        assert boxes[0] == "ftyp" and boxes.index("moov") < boxes.index("mdat"), boxes
+        n_src = len(read_video(run / f"{view}.avi"))
+        cap = cv2.VideoCapture(str(out))
+        assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == n_src
+        cap.release()
+
+
+def test_odd_size_padded_to_even(tmp_path, vidtrack_cli):
+    run = copy_run(tmp_path / "run")
+    assert vidtrack_cli("fit", run, "-q").returncode == 0
+    res = vidtrack_cli("overlay", run, "--view", "top", "--every", "20", "--scale", "0.37")
+    assert res.returncode == 0, res.stderr
+    assert "148 x 42 px, h264" in res.stdout                # 400 x 112 * 0.37 = 148 x 41
+    out = read_video(run / "vidtrack" / "overlay_top.mp4")
+    assert len(out) == 19 and out[0].shape == (42, 148, 3)
+
+
+def test_origin_marker_at_origin_px(drawn):
+    # scene.toml's origin_px: a circled cross of radius 5 px (the frame's shorter side
+    # / 40, at least 5) in pale blue; on the circle the frame is lighter than the footage,
+    # halfway to the centre (off the cross's arms and the axes) it is the footage
+    from vidtrack.scene import load_scene
+
+    run, _ = drawn
+    scene = load_scene(run)
+    for view in ("front", "top"):
+        u0, v0 = scene.views[view].origin_px
+        out = read_video(run / "vidtrack" / f"overlay_{view}.mp4")
+        src = read_video(run / f"{view}.avi")
+        for f in (0, 150, 300):
+            diff = out[f].astype(int) - src[f].astype(int)
+            for ang in (45, 135, 225, 315):
+                a = np.radians(ang)
+                on = diff[int(round(v0 + 5 * np.sin(a))), int(round(u0 + 5 * np.cos(a)))]
+                off = diff[int(round(v0 + 2.5 * np.sin(a))), int(round(u0 + 2.5 * np.cos(a)))]
+                assert on[0] > 60 and on[0] > on[2], (view, f, ang, on)     # pale blue
+                assert np.abs(off).max() < 45, (view, f, ang, off)
+
+
+def test_trail_follows_the_measured_points_and_fades(drawn, tmp_path, vidtrack_cli):
+    # the same overlay without a trail: the difference is the trail alone
+    from vidtrack.report.overlay import TRAIL_COLOUR
+
+    run, _ = drawn
+    bare = copy_run(tmp_path / "bare")
+    shutil.copytree(run / "vidtrack", bare / "vidtrack",
+                    ignore=shutil.ignore_patterns("overlay_*"))
+    res = vidtrack_cli("overlay", bare, "--view", "front", "--trail", "0", "-q")
+    assert res.returncode == 0, res.stderr
+    assert "fitting first" not in res.stderr
+    with_trail = read_video(run / "vidtrack" / "overlay_front.mp4")
+    without = read_video(bare / "vidtrack" / "overlay_front.mp4")
+    tracks = pd.read_csv(run / "vidtrack" / "tracks.csv")
+    rows = tracks[tracks.view == "front"].set_index("frame")
+    rows_ = np.arange(with_trail[0].shape[0])[:, None]
+    cols_ = np.arange(with_trail[0].shape[1])[None, :]
+    checked = 0
+    for f in (120, 160, 200, 240):
+        diff = np.abs(with_trail[f].astype(int) - without[f].astype(int)).max(axis=2)
+        near = np.zeros(diff.shape, bool)
+        for age in range(1, 31):
+            r = rows.loc[f - age]
+            if np.isfinite(r.u_px):
+                near |= np.hypot(cols_ - r.u_px, rows_ - r.v_px) <= 4.5
+        assert ((diff > 25) & near).sum() > 20, f
+        strong = diff > 40                                # beyond the encoder's noise
+        assert not (strong & ~near).any(), (f, np.argwhere(strong & ~near)[:5])
+        # newer dots are more opaque than older ones (fading; the newest dozen lie under
+        # the ring and the fitted cross, the path runs through their middles); beyond 30 frames there are
+        # none. Opacity: the change over the change a full dot would make
+        colour = np.array(TRAIL_COLOUR, float)
+
+        def opacity(age):
+            r = rows.loc[f - age]
+            win = np.hypot(cols_ - r.u_px, rows_ - r.v_px) <= 2
+            full = np.abs(colour - without[f][win]).max(axis=1)
+            return diff[win].sum() / max(full.sum(), 1)
+        assert opacity(16) > opacity(28) + 0.15 and opacity(16) > 2 * opacity(30), f
+        old = rows.loc[f - 45]
+        far = np.hypot(cols_ - old.u_px, rows_ - old.v_px) <= 2
+        if not (far & near).any():
+            assert diff[far].max() < 25, f
+        checked += 1
+    assert checked == 4
+
+
+def test_bad_trail_exit_2(tmp_path, vidtrack_cli):
+    run = copy_run(tmp_path / "run")
+    res = vidtrack_cli("overlay", run, "--trail", "-1")
+    assert res.returncode == 2
+    assert res.stderr.strip().splitlines() == [res.stderr.strip()] and "--trail -1" in res.stderr

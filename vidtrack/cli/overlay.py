@@ -6,8 +6,11 @@ DESCRIPTION = """\
 Write RUN/vidtrack/overlay_<view>.mp4 for every view with footage: each frame in colour
 with the measured centroid (a ring: green when the frame is unflagged, else the colour
 of its first flag), the fitted path projected into the view (a white line over the
-flight, the frame's fitted point a white cross), and in the top-left corner the view,
-the frame number, its time and the flag names (e.g. MERGED|PRE_RELEASE).
+flight, the frame's fitted point a white cross), the trail (the measured points of the
+last --trail frames as pale yellow dots that fade), the scene where scene.toml gives it
+(origin O, the world axes as arrows, the ruler with its length, in pale blue), and in
+the top-left corner the view, the frame number, its time and the flag names (e.g.
+MERGED|PRE_RELEASE).
 
 The tracks and the fit are read from RUN/vidtrack (tracks.h5, fit.json). When they are
 missing or stale (the scene, the footage or vidtrack changed since, or a file was
@@ -16,12 +19,14 @@ fit.json names); that fit's refusals (exit 2) stop the overlay too.
 
 Calibrated views that give points instead of footage have nothing to draw on: they are
 skipped with a note. With throws/, each throw's overlays go to RUN/vidtrack/<throw>/.
-Each file appears whole or not at all; if OpenCV cannot write mp4v, an MJPG .avi is
-written instead (said on stderr).
+The video is H.264 MP4 (yuv420p, even sizes, index at the front) that browsers play
+inline, encoded by the ffmpeg inside the imageio-ffmpeg wheel; each file appears whole
+or not at all.
 
 Examples:
   vidtrack overlay runs/07
   vidtrack overlay runs/07 --view top --every 4 --scale 0.5 --range 100:400
+  vidtrack overlay runs/07 --trail 0
 """
 
 
@@ -37,6 +42,9 @@ def add_arguments(parser):
     parser.add_argument("--range", metavar="A:B", dest="frame_range",
                         help="only the file's frames A to B-1 (0-based, half-open; A: or "
                              ":B for open ends), e.g. --range 100:400")
+    parser.add_argument("--trail", metavar="N", type=int, default=None,
+                        help="the measured points of the last N frames drawn as a fading "
+                             "trail (0: none; default 30), e.g. --trail 60")
 
 
 def parse_range(text):
@@ -64,7 +72,7 @@ def check_options(args):
     import math
 
     from vidtrack.errors import VidtrackError
-    from vidtrack.report.overlay import MAX_EVERY, MAX_SCALE, MIN_SCALE
+    from vidtrack.report.overlay import MAX_EVERY, MAX_SCALE, MAX_TRAIL, MIN_SCALE
 
     if not 1 <= args.every <= MAX_EVERY:
         raise VidtrackError(f"--every {args.every}: expected a whole number of frames from 1 "
@@ -72,6 +80,9 @@ def check_options(args):
     if not (math.isfinite(args.scale) and MIN_SCALE <= args.scale <= MAX_SCALE):
         raise VidtrackError(f"--scale {args.scale:g}: expected a factor from {MIN_SCALE:g} "
                             f"to {MAX_SCALE:g} (output size / footage size)")
+    if args.trail is not None and not 0 <= args.trail <= MAX_TRAIL:
+        raise VidtrackError(f"--trail {args.trail}: expected a whole number of frames from 0 "
+                            f"to {MAX_TRAIL}")
     return parse_range(args.frame_range)
 
 
@@ -81,7 +92,7 @@ def run(args):
     frame_range = check_options(args)
     results, notes = overlay_run(args.run, views=args.view, every=args.every,
                                  scale=args.scale, frame_range=frame_range,
-                                 quiet=args.quiet)
+                                 trail=args.trail, quiet=args.quiet)
     for note in notes:
         import logging
 

@@ -7,26 +7,34 @@ Every frame of a view, in colour, with:
   lowest flag bit set, the first name in ``flag_names``);
 - the **fitted path** (:mod:`vidtrack.report.view_path`) as a white line over the flight
   and the frame's fitted point as a small white cross;
+- the **trail**: the measured points of the last ``trail`` frames before this one as
+  pale yellow dots (:data:`TRAIL_COLOUR`) that fade with age;
+- the **scene** where the view gives it (``front``/``top`` views: ``origin_px``, ``axes``
+  and ``ruler`` of scene.toml) in pale blue (:data:`SCENE_COLOUR`): the origin O as a
+  circled cross, each world axis as an arrow from O toward its positive direction
+  labelled with its name, the ruler as a line between its ends with end ticks and its
+  length;
 - a dark banner in the top-left corner: the view, the frame number and its time, and
   the flag names in the flag colour (``ok`` when unflagged, ``not tracked`` for a
   frame outside the view's ``frames`` range).
 
-The same drawing is used for the contact sheet of report.html
-(:mod:`vidtrack.report.contact_sheet`). Frames are read, drawn and written one at a
-time: memory does not grow with the length of the footage.
+The trail and the scene are pale (low saturation) so that the ring keeps the only
+saturated colour near the object. The same drawing is used for the contact sheet of
+report.html (:mod:`vidtrack.report.contact_sheet`). Frames are read, drawn and written
+one at a time: memory does not grow with the length of the footage. The video is H.264
+MP4 (:mod:`vidtrack.report._h264`), which browsers play inline.
 """
 
-import contextlib
-import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FLAG_COLOURS", "OK_COLOUR", "PATH_COLOUR", "flag_colour", "flag_text",
-           "to_bgr8", "draw_marks", "draw_banner", "write_overlay", "OverlayResult",
-           "MAX_SCALE", "MIN_SCALE", "MAX_EVERY"]
+__all__ = ["FLAG_COLOURS", "OK_COLOUR", "PATH_COLOUR", "TRAIL_COLOUR", "SCENE_COLOUR",
+           "flag_colour", "flag_text", "to_bgr8", "draw_marks", "draw_trail", "draw_banner",
+           "SceneMarks", "scene_marks", "draw_scene", "write_overlay", "OverlayResult",
+           "MAX_SCALE", "MIN_SCALE", "MAX_EVERY", "TRAIL_FRAMES", "MAX_TRAIL"]
 
 #: Colour (B, G, R) of an unflagged frame's marker.
 OK_COLOUR = (0, 255, 0)
@@ -43,6 +51,14 @@ FLAG_COLOURS = {
 }
 #: Colour of the fitted path and the frame's fitted point.
 PATH_COLOUR = (255, 255, 255)
+#: Colour of the trail of earlier measured points (pale yellow).
+TRAIL_COLOUR = (150, 235, 255)
+#: Colour of the scene: origin, axes, ruler (pale blue).
+SCENE_COLOUR = (255, 215, 160)
+#: Opacity of the newest trail point; it falls linearly to 0 over the trail.
+TRAIL_OPACITY = 0.9
+#: Frames of trail by default, and at most.
+TRAIL_FRAMES, MAX_TRAIL = 30, 100_000
 _GREY = (160, 160, 160)
 _SHIFT = 4                 # sub-pixel drawing: coordinates in 1/16 px
 _ONE = 1 << _SHIFT
@@ -156,6 +172,167 @@ def draw_marks(img, *, measured, flags, path=None, fitted=None, scale=1.0,
                    cv2.LINE_AA, _SHIFT)
 
 
+def draw_trail(img, points, *, scale=1.0, offset=(0.0, 0.0), radius=None):
+    """Draw the trail: earlier measured points as dots that fade with age.
+
+    Parameters
+    ----------
+    img : numpy.ndarray
+        BGR image, drawn in place.
+    points : (N, 2) array
+        Measured points in frame pixels, oldest first (NaN rows: nothing measured in
+        that frame, nothing drawn). The newest is drawn with opacity
+        :data:`TRAIL_OPACITY`, the i-th newest with ``TRAIL_OPACITY * (1 - i / N)``;
+        where dots overlap the newest one's opacity holds (they do not add up).
+    scale, offset
+        As for :func:`draw_marks`.
+    radius : float, optional
+        The dots' radius in image pixels (default 0.4 of the ring's, at least 2).
+    """
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    n = len(pts)
+    if n == 0:
+        return
+    h, w = img.shape[:2]
+    if radius is None:
+        radius = max(2.0, max(5.0, min(h, w) / 40.0) / 2.5)
+    uv = _to_image(pts, scale, offset)
+    ok = np.all(np.isfinite(uv), axis=1)
+    if not ok.any():
+        return
+    alpha = TRAIL_OPACITY * np.arange(1, n + 1) / n
+    uv, alpha = uv[ok], alpha[ok]
+    r = int(np.ceil(radius))
+    a0, b0 = np.maximum(np.floor(uv.min(axis=0)).astype(int) - r, 0)
+    a1 = min(int(np.ceil(uv[:, 0].max())) + r + 1, w)
+    b1 = min(int(np.ceil(uv[:, 1].max())) + r + 1, h)
+    if a0 >= a1 or b0 >= b1:
+        return
+    # one opacity layer, each pixel the opacity of the newest dot over it: overlapping
+    # dots do not add up, so the fade shows however close the points are
+    layer = np.zeros((b1 - b0, a1 - a0), dtype=np.float32)
+    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
+    for (cu, cv), a in zip(uv, alpha):
+        iu, iv = int(round(cu)), int(round(cv))
+        disc = (xx + iu - cu) ** 2 + (yy + iv - cv) ** 2 <= radius * radius
+        c0, r0 = iu - r - a0, iv - r - b0
+        lo_c, lo_r = max(c0, 0), max(r0, 0)
+        hi_c, hi_r = min(c0 + 2 * r + 1, a1 - a0), min(r0 + 2 * r + 1, b1 - b0)
+        if lo_c >= hi_c or lo_r >= hi_r:
+            continue
+        sub = disc[lo_r - r0:hi_r - r0, lo_c - c0:hi_c - c0]
+        view = layer[lo_r:hi_r, lo_c:hi_c]
+        np.maximum(view, np.where(sub, np.float32(a), np.float32(0)), out=view)
+    patch = img[b0:b1, a0:a1].astype(np.float32)
+    colour = np.asarray(TRAIL_COLOUR, dtype=np.float32)
+    a = layer[..., None]
+    img[b0:b1, a0:a1] = (patch * (1.0 - a) + colour * a + 0.5).astype(np.uint8)
+
+
+@dataclass(frozen=True)
+class SceneMarks:
+    """The scene of one view in frame pixels, as :func:`draw_scene` draws it.
+
+    Attributes
+    ----------
+    origin : (float, float)
+        The world origin O (scene.toml ``origin_px``).
+    axes : tuple of (str, (float, float))
+        Each world axis the view sees: its name (``"X"``) and the pixel its arrow from
+        O points to (the positive direction, :data:`AXIS_ARROW` of the frame's shorter
+        side long, through the view's mapping).
+    ruler : ((float, float), (float, float), str) or None
+        The ruler's ends and its label (``"0.5 m"``).
+    """
+
+    origin: tuple
+    axes: tuple = ()
+    ruler: tuple | None = None
+
+
+#: An axis arrow's length as a fraction of the frame's shorter side.
+AXIS_ARROW = 0.2
+
+
+def scene_marks(view, frame_shape):
+    """The origin, axes and ruler of ``view`` (a scene.toml view) in its pixels.
+
+    Parameters
+    ----------
+    view : vidtrack.scene.ViewSpec
+        A ``front``/``top`` view (``origin_px``, ``axes``, ``ruler``, the mapping).
+    frame_shape : (rows, cols)
+
+    Returns
+    -------
+    SceneMarks or None
+        None for a view that gives no origin (a calibrated camera).
+    """
+    origin = getattr(view, "origin_px", None)
+    if origin is None or not hasattr(view, "mapping"):
+        return None
+    mapping = view.mapping()
+    length_m = AXIS_ARROW * min(frame_shape[:2]) * mapping.m_per_px
+    axes = []
+    for k, name in enumerate(mapping.world_axes):
+        w = np.zeros(2)
+        w[k] = length_m
+        tip = mapping.world_to_pixel(w)
+        axes.append((name.upper(), (float(tip[0]), float(tip[1]))))
+    ruler = None
+    if getattr(view, "ruler", None) is not None:
+        r = view.ruler
+        ruler = (tuple(map(float, r.from_px)), tuple(map(float, r.to_px)),
+                 f"{r.length_m:.3g} m")
+    return SceneMarks(origin=tuple(map(float, origin)), axes=tuple(axes), ruler=ruler)
+
+
+def _label(img, text, at, colour, fs):
+    import cv2
+
+    cv2.putText(img, text, (int(round(at[0])), int(round(at[1]))), cv2.FONT_HERSHEY_SIMPLEX,
+                fs, colour, 1, cv2.LINE_AA)
+
+
+def draw_scene(img, marks, *, scale=1.0, offset=(0.0, 0.0)):
+    """Draw a view's scene (:class:`SceneMarks`) on ``img`` in :data:`SCENE_COLOUR`.
+
+    The origin O as a circled cross, each axis as an arrow from O labelled with its name
+    at the tip, the ruler as a line with end ticks and its length beside the middle.
+    ``scale, offset`` as for :func:`draw_marks`; ``marks`` None draws nothing.
+    """
+    import cv2
+
+    if marks is None:
+        return
+    h, w = img.shape[:2]
+    size = max(5.0, min(h, w) / 40.0)
+    fs = float(np.clip(min(h, w) / 500.0, 0.3, 0.8))
+    o = _to_image(marks.origin, scale, offset)
+    cv2.circle(img, _pt(o), int(round(size * _ONE)), SCENE_COLOUR, 1, cv2.LINE_AA, _SHIFT)
+    for d in ((size, 0.0), (0.0, size)):
+        cv2.line(img, _pt(o - d), _pt(o + d), SCENE_COLOUR, 1, cv2.LINE_AA, _SHIFT)
+    for name, tip in marks.axes:
+        t = _to_image(tip, scale, offset)
+        if not np.all(np.isfinite(t)):
+            continue
+        cv2.arrowedLine(img, _pt(o), _pt(t), SCENE_COLOUR, 1, cv2.LINE_AA, _SHIFT, 0.12)
+        _label(img, name, t + np.sign(t - o) * 4 + (-4, 4), SCENE_COLOUR, fs)
+    if marks.ruler is not None:
+        a, b = (_to_image(p, scale, offset) for p in marks.ruler[:2])
+        cv2.line(img, _pt(a), _pt(b), SCENE_COLOUR, 1, cv2.LINE_AA, _SHIFT)
+        along = b - a
+        norm = np.hypot(*along)
+        if norm > 0:
+            across = np.array([-along[1], along[0]]) / norm * (size * 0.8)
+            for p in (a, b):
+                cv2.line(img, _pt(p - across), _pt(p + across), SCENE_COLOUR, 1, cv2.LINE_AA,
+                         _SHIFT)
+            (tw, _), _ = cv2.getTextSize(marks.ruler[2], cv2.FONT_HERSHEY_SIMPLEX, fs, 1)
+            _label(img, marks.ruler[2], (a + b) / 2 - across * 1.5 - (tw / 2, 0),
+                   SCENE_COLOUR, fs)
+
+
 def draw_banner(img, lines, colours):
     """Text lines on a dark banner in the top-left corner (the size follows the image)."""
     import cv2
@@ -185,38 +362,56 @@ class OverlayResult:
     note: str | None = None
 
 
-def _writer(cv2, path, codec, fps, size):
-    w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*codec), float(fps), size)
-    if w.isOpened():
-        return w
-    w.release()
-    with contextlib.suppress(OSError):
-        os.unlink(path)
-    return None
+class _MjpgWriter:
+    """OpenCV's MJPG .avi: only where the imageio-ffmpeg wheel has no ffmpeg binary."""
+
+    def __init__(self, path, size, fps):
+        import cv2
+
+        self.path = path
+        self.size = self.out_size = size
+        self._cv2 = cv2
+        self._w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), float(fps),
+                                  size)
+        if not self._w.isOpened():
+            self._w.release()
+            raise OSError(f"{path}: OpenCV's MJPG video writer did not open")
+        self.frames = 0
+
+    def write(self, img):
+        self._w.write(img)
+        self.frames += 1
+
+    def close(self):
+        self._w.release()
+        from vidtrack._atomic import check_video_written
+
+        check_video_written(self.path, self.frames, self.path)
+
+    def abort(self):
+        self._w.release()
 
 
-def _pick_codec(cv2, folder, fps, size):
-    """("mp4v", ".mp4") when OpenCV can write it here, else ("MJPG", ".avi")."""
-    import tempfile
+def _open_writer(work, size, fps):
+    """(writer, codec): H.264 through imageio-ffmpeg's ffmpeg, else OpenCV's MJPG."""
+    from vidtrack.report._h264 import H264Writer, ffmpeg_exe
 
-    for codec, ext in (("mp4v", ".mp4"), ("MJPG", ".avi")):
-        fd, probe = tempfile.mkstemp(prefix=".overlay-probe-", suffix=ext, dir=folder)
-        os.close(fd)
-        w = _writer(cv2, probe, codec, fps, size)
-        if w is not None:
-            w.release()
-        with contextlib.suppress(OSError):
-            os.unlink(probe)
-        if w is not None:
-            return codec, ext
-    from vidtrack.errors import VidtrackError
+    exe = ffmpeg_exe()
+    if exe is not None:
+        return H264Writer(work, size, fps, exe=exe), "h264"
+    return _MjpgWriter(work, size, fps), "MJPG"
 
-    raise VidtrackError(f"{folder}: OpenCV cannot write a video here (neither mp4v .mp4 nor "
-                        "MJPG .avi opened); expected an OpenCV with FFmpeg video writing")
+
+def _trail_rows(frames, k, n):
+    """Rows of the ``n`` frames before row ``k`` (the track's frames in order)."""
+    if k is None or n <= 0:
+        return slice(0, 0)
+    first = int(np.searchsorted(frames, frames[k] - n, side="left"))
+    return slice(first, k)
 
 
 def write_overlay(source, out_dir, view, track, path=None, *, every=1, scale=1.0,
-                  fps_out=None, quiet=True):
+                  fps_out=None, trail=TRAIL_FRAMES, scene=None, quiet=True):
     """Write ``<out_dir>/overlay_<view>.mp4``: ``source``'s frames with the marks drawn.
 
     Parameters
@@ -237,19 +432,26 @@ def write_overlay(source, out_dir, view, track, path=None, *, every=1, scale=1.0
     fps_out : float, optional
         Playback rate of the file (default: the rate the footage's container states,
         else 30).
+    trail : int
+        The trail: measured points of the last ``trail`` frames before each frame
+        (0: none; :func:`draw_trail`).
+    scene : SceneMarks, optional
+        The view's origin, axes and ruler (:func:`scene_marks`; None: not drawn).
     quiet : bool
         No progress bar.
 
     Returns
     -------
     OverlayResult
-        The file is written whole or not at all: under a temporary name, renamed at the
-        end. When OpenCV cannot write mp4v, an MJPG ``.avi`` instead (``note`` says so).
+        ``codec`` ``"h264"``: H.264 in MP4 (4:2:0, even sizes, index at the front;
+        :mod:`vidtrack.report._h264`). The file is written whole or not at all: under a
+        temporary name, renamed at the end; a full disk raises DiskFullError naming it.
+        Where the imageio-ffmpeg wheel has no ffmpeg binary, an MJPG ``.avi`` written by
+        OpenCV instead (``note`` says so).
     """
-    import cv2
-
-    from vidtrack._atomic import atomic_path, check_video_written
+    from vidtrack._atomic import atomic_path
     from vidtrack._progress import progress
+    from vidtrack.report._h264 import ffmpeg_exe
 
     t_start = time.perf_counter()
     out_dir = Path(out_dir)
@@ -257,16 +459,19 @@ def write_overlay(source, out_dir, view, track, path=None, *, every=1, scale=1.0
     rows, cols = source.shape[:2]
     size = (max(1, int(round(cols * scale))), max(1, int(round(rows * scale))))
     fps_out = fps_out or source.fps_container or 30.0
-    codec, ext = _pick_codec(cv2, out_dir, fps_out, size)
-    note = None if codec == "mp4v" else (
-        f"OpenCV cannot write mp4v (.mp4) here: wrote MJPG {ext} instead")
+    ext = ".mp4" if ffmpeg_exe() is not None else ".avi"
+    note = None if ext == ".mp4" else (
+        "the imageio-ffmpeg wheel has no ffmpeg binary here: wrote OpenCV's MJPG .avi "
+        "instead of H.264 .mp4")
     final = out_dir / f"overlay_{view}{ext}"
-    frames = np.asarray(track["frame"], dtype=np.int64)
+    order = np.argsort(np.asarray(track["frame"], dtype=np.int64), kind="stable")
+    frames = np.asarray(track["frame"], dtype=np.int64)[order]
     row_of = {int(f): k for k, f in enumerate(frames)}
-    u = np.asarray(track["u_px"], dtype=np.float64)
-    v = np.asarray(track["v_px"], dtype=np.float64)
-    fl = np.asarray(track["flags"], dtype=np.int64)
-    shifts = camera_shifts(track, len(frames))
+    u = np.asarray(track["u_px"], dtype=np.float64)[order]
+    v = np.asarray(track["v_px"], dtype=np.float64)[order]
+    fl = np.asarray(track["flags"], dtype=np.int64)[order]
+    shifts = camera_shifts(track, len(frames))[order]
+    uv_shown = np.column_stack([u, v]) + shifts
     numbers = source.frame_numbers
     times = source.times_s
     fitted = polyline = None
@@ -277,11 +482,8 @@ def write_overlay(source, out_dir, view, track, path=None, *, every=1, scale=1.0
     bar = progress(total=(len(source) + every - 1) // every, desc=f"overlay {view}",
                    quiet=quiet, unit="frame")
     with atomic_path(final) as tmp:
-        work = tmp.with_name(tmp.name + ext)
-        writer = _writer(cv2, work, codec, fps_out, size)
+        writer, codec = _open_writer(tmp, size, fps_out)
         try:
-            if writer is None:
-                raise OSError(f"{work}: the video writer did not open")
             for i, frame in enumerate(source):
                 if i % every:
                     continue
@@ -290,7 +492,9 @@ def write_overlay(source, out_dir, view, track, path=None, *, every=1, scale=1.0
                 k = row_of.get(f)
                 flags = int(fl[k]) if k is not None else 0
                 sh = shifts[k] if k is not None else np.zeros(2)
-                draw_marks(img, measured=None if k is None else (u[k] + sh[0], v[k] + sh[1]),
+                draw_scene(img, scene, scale=scale, offset=-sh)
+                draw_trail(img, uv_shown[_trail_rows(frames, k, trail)], scale=scale)
+                draw_marks(img, measured=None if k is None else uv_shown[k],
                            flags=flags, path=None if polyline is None else polyline + sh,
                            fitted=None if fitted is None else fitted[i] + sh, scale=scale)
                 status = flag_text(flags) if k is not None else "not tracked"
@@ -300,15 +504,11 @@ def write_overlay(source, out_dir, view, track, path=None, *, every=1, scale=1.0
                 writer.write(img)
                 written += 1
                 bar.update()
-            writer.release()
-            writer = None
-            check_video_written(work, written, final)
-            os.replace(work, tmp)
+            writer.close()
+        except BaseException:
+            writer.abort()
+            raise
         finally:
             bar.close()
-            if writer is not None:
-                writer.release()
-            with contextlib.suppress(OSError):
-                os.unlink(work)
-    return OverlayResult(path=final, frames=written, size=size, codec=codec,
-                         seconds=time.perf_counter() - t_start, note=note)
+    return OverlayResult(path=final, frames=written, size=tuple(writer.out_size),
+                         codec=codec, seconds=time.perf_counter() - t_start, note=note)

@@ -6,7 +6,8 @@ are used when they are current; when they are missing or stale (:func:`stale_rea
 the run is fitted first by :func:`vidtrack.run.pipeline.fit_runs`, as ``vidtrack fit``
 does, with the model fit.json names. Then every view with footage is drawn
 (:func:`vidtrack.report.overlay.write_overlay`) with its fitted path
-(:mod:`vidtrack.report.view_path`).
+(:mod:`vidtrack.report.view_path`), the trail of measured points and the view's scene
+(origin, axes, ruler) as H.264 MP4.
 """
 
 import json
@@ -83,7 +84,8 @@ def _fit_first(plan, reasons, quiet):
     fit_runs([plan.scene.folder], options, plans=[plan])
 
 
-def overlay_run(run_dir, *, views=None, every=1, scale=1.0, frame_range=None, quiet=True):
+def overlay_run(run_dir, *, views=None, every=1, scale=1.0, frame_range=None, trail=None,
+                quiet=True):
     """Write ``overlay_<view>.mp4`` for every view with footage (of every throw).
 
     Parameters
@@ -92,7 +94,8 @@ def overlay_run(run_dir, *, views=None, every=1, scale=1.0, frame_range=None, qu
         The run folder.
     views : list of str, optional
         Only these views (default: every view with footage).
-    every, scale : see :func:`vidtrack.report.overlay.write_overlay`.
+    every, scale, trail : see :func:`vidtrack.report.overlay.write_overlay` (``trail``
+        None: its default).
     frame_range : (int, int or None), optional
         Half-open range of the file's frames to draw (default: all).
     quiet : bool
@@ -110,7 +113,7 @@ def overlay_run(run_dir, *, views=None, every=1, scale=1.0, frame_range=None, qu
     """
     from vidtrack.errors import VidtrackError
     from vidtrack.footage import open_source
-    from vidtrack.report.overlay import write_overlay
+    from vidtrack.report.overlay import TRAIL_FRAMES, scene_marks, write_overlay
     from vidtrack.report.view_path import view_paths
     from vidtrack.run._workers import source_of
     from vidtrack.run.preflight import about, prepare_run
@@ -169,7 +172,9 @@ def overlay_run(run_dir, *, views=None, every=1, scale=1.0, frame_range=None, qu
                     r = write_overlay(src, out, n, {c: data[c].to_numpy() for c in
                                                     ("frame", "u_px", "v_px", "flags",
                                                      *CAMERA_COLUMNS) if c in data},
-                                      paths.get(n), every=every, scale=scale, quiet=quiet)
+                                      paths.get(n), every=every, scale=scale,
+                                      trail=TRAIL_FRAMES if trail is None else trail,
+                                      scene=scene_marks(view, src.shape[:2]), quiet=quiet)
                 if r.note:
                     notes.append(f"{label}, view {n}: {r.note}")
                 results.append(r)
