@@ -3,7 +3,9 @@
 ``experiment.toml`` (docs/scene.md) names the design, the factors with their coding and the
 responses; each run's ``fit.json`` gives the k's (the mean over its throws). The table
 has one row per run: ``run``, the coded factors (``A``, ``B``, ``C``), the factors in
-natural units (their names) and the responses, with standard errors beside them.
+natural units (their names) and the responses, with standard errors beside them. A coded
+level is rounded to :data:`CODED_DECIMALS` decimals, so that a design level is written as
+the design gives it (``-1``, not ``-0.9999999999999999`` from ``(450 - 550) / 100``).
 """
 
 import logging
@@ -23,6 +25,9 @@ log = logging.getLogger(__name__)
 OUTPUTS = ("coefficients.csv", "anova.json", "report.html", "notes.txt")
 #: The responses a run's fit.json gives.
 RESPONSES = ("k1", "k2", "k3", "k4")
+#: Decimals a coded level is rounded to: far below any design's resolution, far above
+#: the rounding error of (natural - centre) / step.
+CODED_DECIMALS = 12
 
 
 def check_runs(experiment, scenes):
@@ -103,7 +108,7 @@ def coefficient_table(experiment, records):
                                  f"{factor.name!r}, which experiment.toml's factor "
                                  f"{letter} needs")
             value = float(rec["factors"][factor.name])
-            row[letter] = factor.code(value)
+            row[letter] = round(factor.code(value), CODED_DECIMALS) + 0.0   # no -0.0
             row[factor.name] = value
         for k in experiment.responses:
             c = rec["coefficients"].get(k)
@@ -148,9 +153,54 @@ def analyse(experiment, table, *, alpha=0.05):
     return fits
 
 
-def write_outputs(out_dir, experiment, table, fits, *, notes=()):
+def run_flags(record):
+    """The frames flagged of those tracked, per view, from a fit.json record:
+    ``"front 44/372, top 42/372"`` (flagged: not usable, i.e. flagged or lost); ``""``
+    when the record has no view summaries."""
+    parts = []
+    for name, v in (record.get("views") or {}).items():
+        if isinstance(v, dict) and "frames" in v and "usable" in v:
+            parts.append(f"{name} {int(v['frames']) - int(v['usable'])}/{int(v['frames'])}")
+    return ", ".join(parts)
+
+
+def run_table(experiment, table, records, run_dirs, out_dir):
+    """The runs of the experiment's report (:class:`vidtrack.report.anova_page.RunTable`).
+
+    Parameters
+    ----------
+    experiment : vidtrack.scene.Experiment
+    table : pandas.DataFrame
+        :func:`coefficient_table` of ``records``.
+    records : sequence of dict
+        The runs' fit.json records, in run order.
+    run_dirs : sequence of path
+        The run folders, in the same order: each run's ``vidtrack/report.html`` is
+        linked relative to ``out_dir`` where it exists.
+    out_dir : path
+        The folder of the experiment's report.html.
+    """
+    import os
+    from urllib.parse import quote
+
+    from vidtrack.report.anova_page import RunTable
+
+    links = []
+    for folder in run_dirs:
+        page = Path(folder) / "vidtrack" / "report.html"
+        links.append(quote(Path(os.path.relpath(page, out_dir)).as_posix())
+                     if page.is_file() else None)
+    letters = sorted(experiment.factors)
+    return RunTable(table=table, coded=tuple(letters),
+                    natural=tuple(experiment.factors[x].name for x in letters),
+                    responses=tuple(experiment.responses), links=tuple(links),
+                    flags=tuple(run_flags(r) for r in records))
+
+
+def write_outputs(out_dir, experiment, table, fits, *, notes=(), runs=None):
     """coefficients.csv, anova.json and report.html in ``out_dir`` (each atomically; if
-    one cannot be written, e.g. on a full disk, none of them is left)."""
+    one cannot be written, e.g. on a full disk, none of them is left). ``runs``
+    (:func:`run_table`) opens report.html with the table of runs."""
     import json
 
     from vidtrack.report.anova_page import write_anova_report
@@ -164,7 +214,7 @@ def write_outputs(out_dir, experiment, table, fits, *, notes=()):
                    json.dumps([f.to_dict() for f in fits], indent=2, allow_nan=False) + "\n")
         write_anova_report(out_dir / "report.html", fits,
                            title=f"Experiment {experiment_name(experiment)}",
-                           source="coefficients.csv")
+                           source="coefficients.csv", runs=runs)
         if notes:
             write_text(out_dir / "notes.txt", "\n".join(notes) + "\n")
     except BaseException:       # a report is its files together: none of a half one

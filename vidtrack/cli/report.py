@@ -45,7 +45,7 @@ def run(args):
     from vidtrack.cli.fit import INTERRUPTED, sigterm_as_interrupt
     from vidtrack.errors import VidtrackError
     from vidtrack.experiment import (OUTPUTS, analyse, check_runs, coefficient_table,
-                                     write_outputs)
+                                     run_table, write_outputs)
     from vidtrack.run.pipeline import FitOptions, check_counts, fit_runs, prepare_runs
     from vidtrack.run.preflight import check_output_folder
     from vidtrack.scene import load_experiment, load_scene
@@ -75,8 +75,9 @@ def run(args):
         return 130
     table = coefficient_table(exp, records)
     fits = analyse(exp, table, alpha=args.alpha)
-    write_outputs(out, exp, table, fits)
-    print(printable(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"),
+    write_outputs(out, exp, table, fits,
+                  runs=run_table(exp, table, records, run_dirs, out))
+    print(printable(table.to_string(index=False, float_format=lambda v: f"{v:.3g}"),
                     keep="\n"))
     for fit in fits:
         print()

@@ -9,19 +9,90 @@ analysis, main-effects plots of the level means like Hou et al. 2019, Fig. 10, a
 interaction plot per interaction, and residual diagnostics. A comparison with a
 published table (:class:`fits.compare.Comparison`) is shown beside each response.
 
+An experiment's report (``vidtrack report``) opens with its runs (:class:`RunTable`): a
+table like Chen et al. 2018, Table 2, of each run's settings and k's, the run's name a
+link to its own report.html, and the frames flagged of those tracked per view.
+
+Numbers are printed as the papers print them: three significant figures (the
+coefficients in natural units four, as eqs. 20-23 give them), F ratios with two
+decimals, p-values with four (``<0.0001`` below); anova.json and coefficients.csv keep
+full precision.
+
 Plots are drawn with matplotlib's Agg canvas (no display, no global pyplot state) and
 embedded as base64 PNG; the file is written atomically.
 """
 
+import textwrap
+from dataclasses import dataclass
+
 import numpy as np
 
+from fits._text import fmt_f
 from vidtrack.report import _html
 from vidtrack._atomic import write_text
 
-__all__ = ["render_anova_report", "write_anova_report"]
+__all__ = ["render_anova_report", "write_anova_report", "RunTable", "SIG", "SIG_NATURAL"]
 
+#: Significant figures of the numbers printed in the report's tables.
+SIG = 3
+#: Significant figures of the coefficients in natural units (Chen 2018, eqs. 20-23).
+SIG_NATURAL = 4
 _esc = _html.esc
-_num = _html.num
+
+
+def _num(x, sig=SIG):
+    return _html.num(x, sig)
+
+
+def _f(f):
+    return "" if f is None else fmt_f(f)
+
+
+@dataclass(frozen=True)
+class RunTable:
+    """An experiment's runs for its report: Chen 2018 Table 2 with links and flags.
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        The coefficient table (:func:`vidtrack.experiment.coefficient_table`): ``run``,
+        the coded factors, the factors in natural units, the responses.
+    coded, natural, responses : tuple of str
+        The column names of the coded factors (``A``), the natural ones (``n_rpm``) and
+        the responses (``k1``), in the order shown.
+    links : tuple of str or None
+        Per row, the run's report.html relative to the experiment's report (None: the
+        run has none; its name is shown without a link).
+    flags : tuple of str
+        Per row, the frames flagged of those tracked, per view (``front 44/372``).
+    """
+
+    table: object
+    coded: tuple
+    natural: tuple
+    responses: tuple
+    links: tuple
+    flags: tuple
+
+
+def _runs_section(runs):
+    t = runs.table
+    heads = (["Run"] + list(runs.coded) + list(runs.natural) + list(runs.responses)
+             + ["Throws", "Flagged / tracked frames"])
+    rows = []
+    for i, (_, r) in enumerate(t.iterrows()):
+        name = _esc(r["run"])
+        link = runs.links[i]
+        cell = f'<a href="{_esc(link)}">{name}</a>' if link else name
+        row = [cell] + [_num(r[c]) for c in runs.coded] + [_num(r[c]) for c in runs.natural]
+        row += [_num(r[k]) if np.isfinite(r[k]) else "n/d" for k in runs.responses]
+        row += [_num(r["throws"]) if "throws" in t else "", _esc(runs.flags[i])]
+        rows.append(row)
+    return ("<h2>Runs</h2><p>Each run's settings (coded and natural) and its "
+            "coefficients (the mean over its throws; n/d: not determined), as Chen et al. "
+            "2018, Table 2; a run's name links to its own report. Flagged / tracked: per "
+            "view, the frames not used in the fit (flagged or lost) of the frames tracked."
+            "</p>" + _html.table(heads, rows, left=1))
 _table = _html.table
 _png = _html.png
 _figure = _html.figure
@@ -86,7 +157,17 @@ def _residual_plots(fit, title):
     return _png(fig)
 
 
+def _suptitle(fig, text, fontsize=10):
+    """A figure title wrapped to the figure's width (never clipped at its sides)."""
+    chars = max(20, int(fig.get_figwidth() * 72 / (0.55 * fontsize)))
+    return fig.suptitle(textwrap.fill(text, chars), fontsize=fontsize)
+
+
 def _rsm_main_effects(fit):
+    return _png(_rsm_main_effects_figure(fit))
+
+
+def _rsm_main_effects_figure(fit):
     k = len(fit.factors)
     fig = _figure(3.2 * k, 3.0)
     axs = np.atleast_1d(fig.subplots(1, k))
@@ -108,10 +189,10 @@ def _rsm_main_effects(fit):
         ax.set_title(f"{f.letter}: {f.name}", fontsize=10)
         if i == 0:
             ax.set_ylabel(fit.response)
-    fig.suptitle(f"{fit.response}: one-factor effects (others at centre; band: 95 % CI "
-                 "of the mean; points: runs on that axis)", fontsize=10)
+    _suptitle(fig, f"{fit.response}: one-factor effects (others at centre; band: 95 % CI "
+              "of the mean; points: runs on that axis)")
     fig.tight_layout()
-    return _png(fig)
+    return fig
 
 
 def _rsm_interaction(fit, term):
@@ -162,9 +243,9 @@ def _ortho_main_effects(fit):
         ax.set_xticks(x)
         ax.set_xticklabels(ra.levels)
         ax.set_xlabel(name)
-        ax.set_title(f"R = {ra.range:.4g}", fontsize=9)
+        ax.set_title(f"R = {_num(ra.range)}", fontsize=9)
     axs[0].set_ylabel(f"mean {fit.response}")
-    fig.suptitle(f"{fit.response}: level means (dashed: grand mean)", fontsize=10)
+    _suptitle(fig, f"{fit.response}: level means (dashed: grand mean)")
     fig.tight_layout()
     return _png(fig)
 
@@ -197,7 +278,7 @@ def _anova_rows(fit, order, labels):
         if r is None:
             continue
         rows.append([_esc(labels.get(key, key)), _num(r.ss), str(r.df), _num(r.ms),
-                     "" if r.f is None else f"{r.f:.4g}", _p(r.p)])
+                     _f(r.f), _p(r.p)])
         cls.append("sig" if r.p is not None and r.p <= fit.alpha else "")
     return _table(["Source", "SS", "df", "MS", "F", "p"], rows, classes=cls)
 
@@ -234,32 +315,32 @@ def _rsm_section(fit, comparisons):
               "lack_of_fit": "Lack of fit", "pure_error": "Pure error", "total": "Total"}
     h.append(_anova_rows(fit, list(labels), labels))
     rows = [[_esc(t.term), _num(t.coefficient), _num(t.stderr), _num(t.ss),
-             "" if t.f is None else f"{t.f:.4g}", _p(t.p)] for t in fit.term_tests]
+             _f(t.f), _p(t.p)] for t in fit.term_tests]
     rows.insert(0, ["Intercept", _num(fit.coefficients_coded["Intercept"]),
                     _num(fit.stderr_coded["Intercept"]), "", "", ""])
     h.append("<h3>Coefficients (coded units) and partial F tests</h3>")
     h.append(_table(["Term", "Coefficient", "Std error", "SS", "F", "p"], rows))
     se_nat = np.sqrt(np.maximum(np.diag(fit.covariance_natural), 0.0))
-    rows = [[_esc(k), _num(v, 7), _num(s, 4)]
+    rows = [[_esc(k), _num(v, SIG_NATURAL), _num(s)]
             for (k, v), s in zip(fit.coefficients_natural.items(), se_nat)]
     h.append("<h3>Coefficients in natural units (exact expansion of the coded model)</h3>")
     h.append(_table(["Term", "Coefficient", "Std error"], rows))
     h.append(f"<p><code>{_esc(fit.equation_natural())}</code></p>")
-    stats = [["R²", _num(fit.r2, 4)], ["Adjusted R²", _num(fit.adj_r2, 4)],
-             ["Predicted R²", _num(fit.pred_r2, 4) or "n/a"],
-             ["Adequate precision", _num(fit.adeq_precision, 4) or "n/a"],
-             ["Std. dev.", _num(fit.std_dev, 4)], ["Mean", _num(fit.mean, 4)],
-             ["C.V. %", _num(fit.cv_pct, 4) or "n/a"], ["PRESS", _num(fit.press, 4) or "n/a"],
-             ["Condition number (coded)", _num(fit.condition_number, 4)],
-             ["Condition number (natural units)", _num(fit.condition_number_natural, 4)]]
+    stats = [["R²", _num(fit.r2)], ["Adjusted R²", _num(fit.adj_r2)],
+             ["Predicted R²", _num(fit.pred_r2) or "n/a"],
+             ["Adequate precision", _num(fit.adeq_precision) or "n/a"],
+             ["Std. dev.", _num(fit.std_dev)], ["Mean", _num(fit.mean)],
+             ["C.V. %", _num(fit.cv_pct) or "n/a"], ["PRESS", _num(fit.press) or "n/a"],
+             ["Condition number (coded)", _num(fit.condition_number)],
+             ["Condition number (natural units)", _num(fit.condition_number_natural)]]
     h.append(_table(["Statistic", "Value"], stats))
     c = fit.canonical
     if c.available:
-        pt = ", ".join(f"{k} = {v:.5g}" for k, v in c.stationary_point_natural.items())
-        eig = ", ".join(f"{v:.4g}" for v in c.eigenvalues)
+        pt = ", ".join(f"{k} = {_num(v)}" for k, v in c.stationary_point_natural.items())
+        eig = ", ".join(_num(v) for v in c.eigenvalues)
         where = "inside" if c.within_design else "outside"
         h.append(f"<p>Canonical analysis: a {_esc(c.nature)} at {_esc(pt)} (predicted "
-                 f"{c.response_at_stationary:.5g}; {where} the design); eigenvalues "
+                 f"{_num(c.response_at_stationary)}; {where} the design); eigenvalues "
                  f"{_esc(eig)}.</p>")
     else:
         h.append(f"<p>Canonical analysis: {_esc(c.reason)}.</p>")
@@ -286,16 +367,16 @@ def _ortho_section(fit, comparisons):
     rows = []
     for name in fit.order_by_range:
         ra = fit.range_analysis[name]
-        rows.append([_esc(name), _esc("; ".join(f"{lv}: {ra.level_means[lv]:.4g}"
+        rows.append([_esc(name), _esc("; ".join(f"{lv}: {_num(ra.level_means[lv])}"
                                                  for lv in ra.levels)),
-                     _num(ra.range, 4), str(ra.rank),
+                     _num(ra.range), str(ra.rank),
                      f"{fit.percent_contribution[name]:.2f}"])
     h.append("<h3>Range analysis</h3>")
     h.append(_table(["Factor", "Level means", "Range R", "Rank by R", "% of SS"], rows,
                     left=2))
     h.append(f"<p>Order of influence (by the ANOVA): "
-             f"{_esc(' > '.join(fit.order_of_influence))}. R² = {fit.r2:.4g}, adjusted R² = "
-             f"{_num(fit.adj_r2, 4) or 'n/a'}.</p>")
+             f"{_esc(' > '.join(fit.order_of_influence))}. R² = {_num(fit.r2)}, adjusted R² = "
+             f"{_num(fit.adj_r2) or 'n/a'}.</p>")
     h += [f'<p class="note">Note: {_esc(n)}</p>' for n in fit.notes]
     h.append(_comparison_html(comparisons, fit.response))
     h.append("<h3>Main effects</h3>")
@@ -307,7 +388,7 @@ def _ortho_section(fit, comparisons):
     return "".join(h)
 
 
-def render_anova_report(fits, *, comparisons=(), title=None, source=None):
+def render_anova_report(fits, *, comparisons=(), title=None, source=None, runs=None):
     """The report as an HTML string (self-contained: images are inline PNG).
 
     Parameters
@@ -317,12 +398,14 @@ def render_anova_report(fits, *, comparisons=(), title=None, source=None):
     title : str, optional
     source : str, optional
         The analysed table's name, shown in the header.
+    runs : RunTable, optional
+        An experiment's runs, shown first (``vidtrack report``).
     """
     fits = list(fits)
     title = title or "ANOVA report" + (f": {source}" if source else "")
     subtitle = ((f"table <code>{_esc(source)}</code>; " if source else "")
                 + f"responses: {_esc(', '.join(f.response for f in fits))}.")
-    parts = []
+    parts = [] if runs is None else [_runs_section(runs)]
     for comp in comparisons:
         parts += [f'<p class="note">{_esc(comp.source)}: {_esc(n)}</p>' for n in comp.notes]
     for fit in fits:
@@ -333,11 +416,13 @@ def render_anova_report(fits, *, comparisons=(), title=None, source=None):
     return _html.page(title, parts, subtitle=subtitle)
 
 
-def write_anova_report(path, fits, *, comparisons=(), title=None, source=None):
-    """Render the report and write it to ``path`` atomically (whole or not at all).
+def write_anova_report(path, fits, *, comparisons=(), title=None, source=None, runs=None):
+    """Render the report (:func:`render_anova_report`) and write it to ``path``
+    atomically (whole or not at all).
 
     Returns the path written.
     """
-    text = render_anova_report(fits, comparisons=comparisons, title=title, source=source)
+    text = render_anova_report(fits, comparisons=comparisons, title=title, source=source,
+                               runs=runs)
     write_text(path, text)
     return path
