@@ -350,9 +350,10 @@ def test_trail_follows_the_measured_points_and_fades(drawn, tmp_path, vidtrack_c
         assert ((diff > 25) & near).sum() > 20, f
         strong = diff > 40                                # beyond the encoder's noise
         assert not (strong & ~near).any(), (f, np.argwhere(strong & ~near)[:5])
-        # newer dots are more opaque than older ones (fading; the newest dozen lie under
-        # the ring and the fitted cross, the path runs through their middles); beyond 30 frames there are
-        # none. Opacity: the change over the change a full dot would make
+        # newer dots are more opaque than older ones (fading; the newest dozen lie
+        # under the ring and the fitted cross, the path runs through their middles);
+        # beyond 30 frames there are none. Opacity: the change over the change a full
+        # dot would make
         colour = np.array(TRAIL_COLOUR, float)
 
         def opacity(age):
