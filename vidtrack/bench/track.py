@@ -6,6 +6,7 @@ blur, MJPG compression) is read by four methods, each timed on the same file:
 
 - ``decode only``: iterating the frames and doing nothing (the limit any tracker has);
 - ``vidtrack``: :func:`vidtrack.track.tracker.track`, background included, every frame;
+  ``vidtrack (flight)``: the same with ``engine="flight"``;
 - ``trackpy.locate``: the feature finder of trackpy (bandpass + centroid of mass in a
   disc of the straw's length), the feature nearest the previous position each frame;
 - ``opencv <name>``: an OpenCV single-object tracker (CSRT or KCF when this OpenCV has
@@ -36,6 +37,10 @@ import pandas as pd
 from vidtrack._atomic import atomic_path
 
 __all__ = ["run_track_bench", "opencv_tracker", "plot_track_bench", "QUICK", "FULL"]
+
+#: Tracker engines timed beside the default one (``vidtrack``), each a row
+#: ``vidtrack (ENGINE)``.
+_OTHER_ENGINES = ("flight",)
 
 #: Footage of the quick and the full benchmark.
 QUICK = {"size_px": (320, 240), "frames": 150, "alt_frames": 150, "repeats": 1}
@@ -97,13 +102,14 @@ def _decode(path, fps):
     return n / (time.perf_counter() - t0)
 
 
-def _ours(path, fps):
+def _ours(path, fps, engine=None):
     from vidtrack.footage import open_source
     from vidtrack.track.tracker import track
 
     t0 = time.perf_counter()
     with open_source(path, fps=fps) as src:
-        tr = track(src, view="front")
+        tr = track(src, view="front") if engine is None else track(src, view="front",
+                                                                   engine=engine)
     rate = len(tr.data) / (time.perf_counter() - t0)
     pos = tr.data[["u_px", "v_px"]].to_numpy(dtype=float).copy()
     pos[~tr.usable] = np.nan
@@ -241,12 +247,16 @@ def run_track_bench(out_dir, *, quick=False):
         clean = _clean(per_frame)
         n = len(per_frame)
         everything = np.ones(n, bool)
-        dec_rates, our_rates = [], []
-        pos = None
+        dec_rates, our_rates, other_rates = [], [], {e: [] for e in _OTHER_ENGINES}
+        pos, other_pos = None, {}
         for _ in range(cfg["repeats"]):
+            # (interleaved: a machine shared with other work slows each alike)
             dec_rates.append(_decode(path, fps))
             rate, pos = _ours(path, fps)
             our_rates.append(rate)
+            for engine in _OTHER_ENGINES:
+                rate, other_pos[engine] = _ours(path, fps, engine)
+                other_rates[engine].append(rate)
         dec = statistics.median(dec_rates)
         ours = statistics.median(our_rates)
         start = _start_frame(per_frame, clean)
@@ -263,6 +273,12 @@ def run_track_bench(out_dir, *, quick=False):
     rows.append({"method": "vidtrack", "fps": ours, "rms_px": rms, "max_px": mx,
                  "frames_scored": k, "frames_clean": c, "frames_run": n,
                  "note": "unflagged frames; background included; finds the straw itself"})
+    for engine in _OTHER_ENGINES:
+        rms, mx, k, c = _score(other_pos[engine], per_frame, clean, everything)
+        rows.append({"method": f"vidtrack ({engine})",
+                     "fps": statistics.median(other_rates[engine]), "rms_px": rms,
+                     "max_px": mx, "frames_scored": k, "frames_clean": c, "frames_run": n,
+                     "note": f"[track] engine = \"{engine}\"; unflagged frames"})
     rms, mx, k, c = _score(tp_pos, per_frame, clean, tp_ran)
     rows.append({"method": "trackpy.locate", "fps": tp_rate, "rms_px": rms, "max_px": mx,
                  "frames_scored": k, "frames_clean": c, "frames_run": int(tp_ran.sum()),
