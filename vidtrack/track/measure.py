@@ -19,7 +19,8 @@ touches it. :mod:`vidtrack.track.flag` tests it against the chain's clean frames
 import cv2
 import numpy as np
 
-from vidtrack.track.detect import pixel_weights
+from vidtrack.track.detect import CLEAR_SIGMAS, pixel_weights
+from vidtrack.track.rod import fit_rod
 from vidtrack.track.path import robust_scale
 
 __all__ = ["Shape", "measure_frame", "chain_shape"]
@@ -37,15 +38,23 @@ ELONGATED = 1.5
 #: The residual share is taken over the pixels within this many kernels of the object.
 NEAR_KERNELS = 2.0
 
+#: A rod (its spread along at least this many times its spread across: a straw, not a
+#: bear) is measured by the bar fitted to it (:mod:`vidtrack.track.rod`): the pixels of
+#: what touches it, inside its kernel too, weigh little.
+ROD_ASPECT = 3.0
+
 
 class Shape:
     """The object's shape: spreads (px, standard deviations) along its major and minor
-    axes, the robust medians of its chain's detections."""
+    axes, the robust medians of its chain's detections; for a rod, the profile of the
+    bar last fitted to it (half width, coverage, blurs across and along: where the next
+    frame's fit starts), None before the first."""
 
-    __slots__ = ("major", "minor")
+    __slots__ = ("major", "minor", "profile")
 
     def __init__(self, major, minor):
         self.major, self.minor = float(major), float(minor)
+        self.profile = None
 
 
 def chain_shape(chain):
@@ -136,14 +145,52 @@ def measure_frame(frame, background, sigma, det, shape, settings):
     if sw <= 0:
         return float(det["u"]), float(det["v"]), 0.0, np.nan, np.nan, np.nan, np.nan
     eu, ev = x - cu, y - cv
-    muu = float(np.sum(wi * eu * eu) / sw)
-    mvv = float(np.sum(wi * ev * ev) / sw)
-    muv = float(np.sum(wi * eu * ev) / sw)
     c, s = np.cos(theta), np.sin(theta)
     m2 = ((eu * c + ev * s) / a) ** 2 + ((-eu * s + ev * c) / b) ** 2
     near = m2 <= (NEAR_KERNELS * k) ** 2
     out = float(np.sum(w * (near & ~inside)))
-    return cu, cv, sw, muu, mvv, muv, out / (out + sw)
+    residual = out / (out + sw)
+    if shape.major > ROD_ASPECT * shape.minor and np.isfinite(det["obj_level"]):
+        # a rod: its centre from the bar fitted to the pixels in its kernel (another
+        # object's apart from it left out), robustly, the mean shift's where the fit
+        # fails
+        rod = _rod_centre(d, bg, sg, det, fg, n_lab, lab, (r0, c0), (cu, cv, theta),
+                          (a, b), shape, k, settings)
+        if rod is not None:
+            cu, cv, fitted = rod
+            shape.profile = fitted[4:]
+    eu, ev = x - cu, y - cv
+    muu = float(np.sum(wi * eu * eu) / sw)
+    mvv = float(np.sum(wi * ev * ev) / sw)
+    muv = float(np.sum(wi * eu * ev) / sw)
+    return cu, cv, sw, muu, mvv, muv, residual
+
+
+def _rod_centre(d, bg, sg, det, fg, n_lab, lab, origin, pose, spreads, shape, k,
+                settings):
+    """The centre of the bar (:func:`vidtrack.track.rod.fit_rod`) fitted to the coverage
+    of the crop's pixels within the kernel at ``pose`` (another detection's pixels apart
+    from the object's left out), or None."""
+    r0, c0 = origin
+    cu, cv, theta = pose
+    a, b = spreads
+    rr, cc = np.mgrid[0:d.shape[0], 0:d.shape[1]]
+    x, y = cc + c0 + 0.0, rr + r0 + 0.0
+    c, s = np.cos(theta), np.sin(theta)
+    du, dv = x - cu, y - cv
+    m2 = ((du * c + dv * s) / a) ** 2 + ((-du * s + dv * c) / b) ** 2
+    use = m2 <= k * k
+    if n_lab > 2:
+        use &= (lab == 0) | (fg > 0)
+    span = float(det["obj_level"]) - bg[use]
+    sig = sg[use]
+    level = float(det["level"]) if np.isfinite(det["level"]) and det["level"] > 0 else 1.0
+    sign = 1.0 if det["contrast"] >= 0 else -1.0
+    clear = np.abs(span) > CLEAR_SIGMAS * sig
+    cover = np.where(clear, d[use] / np.where(clear, span, 1.0), sign * d[use] / level)
+    return fit_rod(x[use], y[use], cover, (cu, cv, theta, np.sqrt(3.0) * shape.major,
+                                           np.sqrt(3.0) * max(shape.minor, 0.3)),
+                   profile=shape.profile)
 
 
 def residual_outliers(residual, settings):
