@@ -13,7 +13,7 @@ import numpy as np
 from calibration.errors import InputError
 
 __all__ = ["Scale", "ruler_scale", "given_scale", "pixel_point", "M_PER_PX_RANGE",
-           "check_m_per_px"]
+           "check_m_per_px", "ruler_rel_uncertainty"]
 
 #: Scales accepted, metres per pixel: a nanometre to a kilometre per pixel. Anything
 #: outside is a typo or an overflow (a ruler of 1e300 m over 1e-10 px gives inf).
@@ -214,3 +214,41 @@ def given_scale(m_per_px):
         Not a finite number > 0, or outside :data:`M_PER_PX_RANGE`.
     """
     return Scale(m_per_px=check_m_per_px(m_per_px), method="given")
+
+
+def ruler_rel_uncertainty(span_px, px_uncertainty):
+    """The relative standard uncertainty of a ruler's scale from its ends' uncertainty.
+
+    Parameters
+    ----------
+    span_px : float
+        N, the ruler's length in pixels (> 0).
+    px_uncertainty : float
+        sigma, the standard uncertainty (px) of each end's position in each image
+        direction, the two ends independent (>= 0).
+
+    Returns
+    -------
+    float
+        ``sqrt(2) sigma / N``: the length N is the difference of the two ends' positions
+        along the ruler, each uncertain by sigma, so its uncertainty is sqrt(2) sigma
+        (the ends' errors across the ruler change N only to second order); k = W / N is
+        then uncertain by the same relative amount.
+
+    Raises
+    ------
+    InputError
+        ``span_px`` not > 0, or ``px_uncertainty`` negative or not finite.
+
+    Example
+    -------
+    >>> round(ruler_rel_uncertainty(80.65, 0.5), 5)
+    0.00877
+    """
+    n = _finite_number(span_px, "span_px")
+    sigma = _finite_number(px_uncertainty, "px_uncertainty")
+    if n <= 0:
+        raise InputError(f"span_px must be > 0, got {span_px!r}")
+    if sigma < 0:
+        raise InputError(f"px_uncertainty must be >= 0, got {px_uncertainty!r}")
+    return math.sqrt(2.0) * sigma / n

@@ -19,8 +19,11 @@ from fits.errmodel import ErrorModel
 from fits.errors import InputError
 from fits.throw import flight_drag, flight_y
 
-__all__ = ["Coefficient", "AxisFit", "ThrowFit", "coefficient_rows"]
+__all__ = ["Coefficient", "AxisFit", "ThrowFit", "coefficient_rows", "calibration_rows",
+           "CALIBRATION_NOTE"]
 
+#: The normal quantile of a 95 % interval, for the calibration's (systematic) part.
+_Z95 = float(special.ndtri(0.975))
 #: The axis whose fit gives each coefficient.
 K_AXIS = {"k1": "y", "k2": "y", "k3": "x", "k4": "z"}
 _MODEL_NAMES = {"quadratic": "quadratic drag (Chen 2018)", "linear": "linear drag (Liao 2021)",
@@ -29,17 +32,49 @@ _MODEL_NAMES = {"quadratic": "quadratic drag (Chen 2018)", "linear": "linear dra
 
 @dataclass(frozen=True)
 class Coefficient:
-    """One fitted coefficient: value, standard error and 95 % interval, or why not."""
+    """One fitted coefficient: value, standard error and 95 % interval, or why not.
+
+    ``stderr`` and ``ci95`` are the fit's own part (the scatter of the points). When the
+    calibration's part is known (:meth:`ThrowFit.with_calibration`), ``stderr_calibration``
+    is the standard error that the views' scales carry into the coefficient (a
+    systematic part, shared by every throw converted with the same scales), and
+    ``scale_sensitivity`` gives per view dk / d(ln s): the change of k per relative change
+    of that view's scale. :attr:`stderr_total` and :attr:`ci95_total` combine the two.
+    """
 
     value: float | None
     stderr: float | None
     ci95: tuple | None
     determined: bool
     reason: str | None = None
+    stderr_calibration: float | None = None
+    scale_sensitivity: dict | None = None
 
     @classmethod
     def undetermined(cls, reason):
         return cls(None, None, None, False, reason)
+
+    @property
+    def stderr_total(self):
+        """sqrt(stderr^2 + stderr_calibration^2), or None without the calibration's part."""
+        if not self.determined or self.stderr is None or self.stderr_calibration is None:
+            return None
+        return math.hypot(self.stderr, self.stderr_calibration)
+
+    @property
+    def ci95_total(self):
+        """The 95 % interval of fit and calibration together, or None without the latter.
+
+        Each side of the fit's interval (t-quantile or bootstrap percentile) and 1.96
+        calibration standard errors, added in quadrature:
+        ``value -+ sqrt(half_side^2 + (1.96 stderr_calibration)^2)``.
+        """
+        if self.stderr_total is None or self.ci95 is None:
+            return None
+        cal = _Z95 * self.stderr_calibration
+        lo, hi = self.ci95
+        return (self.value - math.hypot(self.value - lo, cal),
+                self.value + math.hypot(hi - self.value, cal))
 
     def to_dict(self):
         out = {"value": self.value, "stderr": self.stderr,
@@ -47,6 +82,13 @@ class Coefficient:
                "determined": self.determined}
         if self.reason:
             out["reason"] = self.reason
+        if self.stderr_total is not None:
+            out["stderr_fit"] = self.stderr
+            out["stderr_calibration"] = self.stderr_calibration
+            out["stderr_total"] = self.stderr_total
+            out["ci95_total"] = list(self.ci95_total)
+        if self.scale_sensitivity is not None:
+            out["scale_sensitivity"] = dict(self.scale_sensitivity)
         return out
 
 
@@ -101,6 +143,31 @@ class ThrowFit:
     coefficients: dict
     initial_state: dict
     axes: dict = field(default_factory=dict)
+
+    def with_calibration(self, parts):
+        """This fit with the calibration's part of each coefficient's error.
+
+        Parameters
+        ----------
+        parts : dict of str to (float or None, dict)
+            Per coefficient name: ``(stderr_calibration, scale_sensitivity)``, the
+            standard error the views' scales carry into it and {view: dk / d(ln s)}.
+            Coefficients not named, or not determined, are kept as they are.
+
+        Returns
+        -------
+        ThrowFit
+        """
+        from dataclasses import replace
+
+        coeffs = {}
+        for k, c in self.coefficients.items():
+            if c.determined and k in parts:
+                sd, sens = parts[k]
+                c = replace(c, stderr_calibration=None if sd is None else float(sd),
+                            scale_sensitivity=dict(sens) if sens is not None else None)
+            coeffs[k] = c
+        return replace(self, coefficients=coeffs)
 
     def __repr__(self):
         ks = ", ".join(f"{k}={fmt_pm(c.value, c.stderr)}" for k, c in self.coefficients.items())
@@ -292,6 +359,12 @@ class ThrowFit:
                  Table(["Axis", "Points", "Parameters", "Residual RMS (mm)",
                         "Condition number", "Lag-1 autocorrelation"], rows, align="lrlrrr"),
                  "", "Initial state: " + (state or "(none)")]
+        cal = calibration_rows(self.coefficients)
+        if cal:
+            parts += ["", CALIBRATION_NOTE,
+                      Table(["Coefficient", "Std err (fit)", "Std err (scale)",
+                             "Std err (total)", "95 % interval (total)",
+                             "dk/d(ln s) per view"], cal, align="lrrrrl")]
         parts += [f"Note: {a}: {n}" for a, f in self.axes.items() if f for n in f.notes]
         return Report(parts)
 
@@ -359,6 +432,39 @@ def coefficient_rows(coefficients):
                          c.get("reason") or ""))
         else:
             rows.append((k, "not determined", "", "", c.get("reason") or ""))
+    return rows
+
+
+#: What the calibration's part of a coefficient's error is, said beside its table.
+CALIBRATION_NOTE = ("The scale's part is systematic: each view's scale converts every point "
+                    "of that view, in every throw of the run, so averaging throws does not "
+                    "reduce it; the fit's part is the scatter of the points.")
+
+
+def calibration_rows(coefficients):
+    """The calibration's part of each determined k as text, or [] when there is none.
+
+    Parameters
+    ----------
+    coefficients : mapping of str to Coefficient or its ``to_dict()``
+
+    Returns
+    -------
+    list of tuple of str
+        ``(name, stderr fit, stderr scale, stderr total, "lo .. hi" total,
+        "front -1.6, top 0.46")``, for the coefficients that carry a calibration part.
+    """
+    rows = []
+    for k, c in coefficients.items():
+        c = c.to_dict() if isinstance(c, Coefficient) else c
+        if not c.get("determined") or c.get("stderr_calibration") is None:
+            continue
+        ci = c.get("ci95_total")
+        sens = c.get("scale_sensitivity") or {}
+        rows.append((k, _num(c["stderr"], 3), _num(c["stderr_calibration"], 3),
+                     _num(c["stderr_total"], 3),
+                     f"{_num(ci[0], 5)} .. {_num(ci[1], 5)}" if ci else "",
+                     ", ".join(f"{v} {_num(d, 3)}" for v, d in sens.items())))
     return rows
 
 

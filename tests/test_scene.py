@@ -185,11 +185,14 @@ def _set(path, value):
 DELETE = object()
 
 
-def _ruler_to_given(value):
-    """The front view's scale given as m_per_px = value instead of its ruler."""
+def _ruler_to_given(value, *, rel=None):
+    """The front view's scale given as m_per_px = value instead of its ruler (and its
+    m_per_px_rel_uncertainty = rel when given)."""
     def mutate(d):
         del d["views"]["front"]["ruler"]
         d["views"]["front"]["m_per_px"] = value
+        if rel is not None:
+            d["views"]["front"]["m_per_px_rel_uncertainty"] = rel
     return mutate
 
 BAD = [
@@ -275,6 +278,23 @@ BAD = [
     (_set("machine.speed_kmh", "fast"), "machine.speed_kmh", "must be a number"),
     (_set("factors.n_rpm", [550]), "factors.n_rpm", "must be a number or a string"),
     (_set("factors.n_rpm", {"value": 550}), "factors.n_rpm", "must be a number or a string"),
+    (_set("views.front.ruler.px_uncertainty", -0.5), "views.front.ruler.px_uncertainty",
+     "must be >= 0, got -0.5"),
+    (_set("views.front.ruler.px_uncertainty", "half"), "views.front.ruler.px_uncertainty",
+     "must be a number, got a string 'half'"),
+    (_set("views.front.ruler.px_uncertainty", 1e3), "views.front.ruler.px_uncertainty",
+     "must be between 0 and 100 px"),
+    (_set("views.front.ruler.px_uncertainty", 50), "views.front.ruler.px_uncertainty",
+     "= 50 px on a ruler of 125 px gives a scale uncertain by 56.6 %"),
+    (_set("views.front.m_per_px_rel_uncertainty", 0.01), "views.front.m_per_px_rel_uncertainty",
+     "is for a scale given directly"),
+    (_ruler_to_given(0.004, rel=0.7), "views.front.m_per_px_rel_uncertainty",
+     "must be between 0 and 0.5 (a relative standard uncertainty, e.g. 0.005 for 0.5 %), "
+     "got 0.7"),
+    (_ruler_to_given(0.004, rel=-0.01), "views.front.m_per_px_rel_uncertainty",
+     "must be >= 0, got -0.01"),
+    (_ruler_to_given(0.004, rel="1 %"), "views.front.m_per_px_rel_uncertainty",
+     "must be a number, got a string '1 %'"),
 ]
 
 
@@ -290,6 +310,40 @@ def test_bad_values_are_named(tmp_path, mutate, key, message):
     assert msg.startswith(f"{path}: {key} "), msg     # the file, then the key path
     assert message in msg, msg                        # what was expected, what came
     assert "\n" not in msg
+
+
+def test_scale_uncertainty_keys(tmp_path):
+    # a ruler's ends: half a pixel unless stated; rel = sqrt(2) sigma / N (N = 125 px here)
+    s = load_scene(write_raw(tmp_path / "a", base()))
+    rel, how = s.views["front"].scale_rel_uncertainty
+    assert s.views["front"].ruler.px_uncertainty == 0.5
+    assert rel == pytest.approx(math.sqrt(2) * 0.5 / 125, rel=1e-12) and "125 px" in how
+    data = base()
+    data["views"]["front"]["ruler"]["px_uncertainty"] = 0.2
+    _ruler_to_given(0.004, rel=0.008)(data)           # the front view by m_per_px now
+    data["views"]["top"]["ruler"]["px_uncertainty"] = 0.2
+    s2 = load_scene(write_raw(tmp_path / "b", data))
+    assert s2.views["front"].scale_rel_uncertainty[0] == 0.008
+    assert s2.views["top"].scale_rel_uncertainty[0] == pytest.approx(
+        math.sqrt(2) * 0.2 / 125, rel=1e-12)
+    # written back and read again: the same scene
+    again = load_scene(write_scene(tmp_path / "c" / "scene.toml", s2.to_dict()))
+    assert again.to_dict()["views"] == s2.to_dict()["views"]
+    # a scale given directly without a stated uncertainty: None (taken as exact, said so)
+    data = base()
+    _ruler_to_given(0.004)(data)
+    s3 = load_scene(write_raw(tmp_path / "d", data))
+    assert s3.views["front"].scale_rel_uncertainty[0] is None
+
+
+def test_scale_uncertainty_is_not_in_the_scene_hash(tmp_path):
+    # it changes the intervals, not the tracks: the tracks stage keys on the hash
+    data = base()
+    h0 = load_scene(write_raw(tmp_path / "a", data)).hash
+    data["views"]["front"]["ruler"]["px_uncertainty"] = 0.3
+    assert load_scene(write_raw(tmp_path / "b", data)).hash == h0
+    data["views"]["front"]["ruler"]["to_px"] = [206, 482]
+    assert load_scene(write_raw(tmp_path / "c", data)).hash != h0
 
 
 def test_factor_speed_must_be_a_number_when_it_is_the_default(tmp_path):

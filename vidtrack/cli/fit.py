@@ -66,21 +66,41 @@ def add_arguments(parser):
                              "e.g. --profile fit.prof")
 
 
+#: Said under the table when any k carries the calibration's part.
+SCALE_LEGEND = ("k: value ± fit ± scale (standard errors): the fit's own (the points' "
+                "scatter), then the views' scales' (systematic: shared by every throw of "
+                "the run, averaging throws does not reduce it); 95 % intervals of both in "
+                "fit.json (ci95_total)")
+
+
+def _k_cell(c):
+    """``2.203 ± 0.0013 ± 0.016`` (value ± fit ± scale), ``n.d.`` when not determined."""
+    if not c["determined"]:
+        return "n.d."
+    cell = f"{c['value']:.4g} ± {c['stderr']:.2g}"
+    if c.get("stderr_calibration") is not None:
+        cell += f" ± {c['stderr_calibration']:.2g}"
+    return cell
+
+
 def format_records(records):
-    """One line per run: k1..k4 as value ± stderr (n.d. when not determined)."""
-    head = f"{'run':<14} {'k1':>16} {'k2':>16} {'k3':>16} {'k4':>16} {'rms mm x/y/z':>16} {'s':>6}"
+    """One line per run: k1..k4 as value ± fit stderr (± scale stderr where known; n.d.
+    when not determined)."""
+    scaled = any(r["coefficients"][k].get("stderr_calibration") is not None
+                 for r in records for k in ("k1", "k2", "k3", "k4"))
+    w = 22 if scaled else 16
+    head = (f"{'run':<14} {'k1':>{w}} {'k2':>{w}} {'k3':>{w}} {'k4':>{w}} "
+            f"{'rms mm x/y/z':>16} {'s':>6}")
     lines = [head, "-" * len(head)]
     for r in records:
-        cells = []
-        for k in ("k1", "k2", "k3", "k4"):
-            c = r["coefficients"][k]
-            cells.append(f"{c['value']:.4g} ± {c['stderr']:.2g}" if c["determined"]
-                         else "n.d.")
+        cells = [_k_cell(r["coefficients"][k]) for k in ("k1", "k2", "k3", "k4")]
         rms = "/".join("-" if r["residual_rms_m"][a] is None
                        else f"{1000 * r['residual_rms_m'][a]:.2f}" for a in "xyz")
         total = r["timings_s"].get("total", sum(r["timings_s"].values()))
-        lines.append(f"{r['run']:<14} " + " ".join(f"{c:>16}" for c in cells)
+        lines.append(f"{r['run']:<14} " + " ".join(f"{c:>{w}}" for c in cells)
                      + f" {rms:>16} {total:6.2f}")
+    if scaled:
+        lines.append(SCALE_LEGEND)
     notes = []
     for r in records:
         if "fit" in r.get("stages_reused", []):

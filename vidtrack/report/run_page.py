@@ -21,6 +21,26 @@ def _k_rows(record):
     return coefficient_rows({k: record["coefficients"][k] for k in K_NAMES})
 
 
+#: The calibration table's columns (report.md and report.html).
+_CAL_HEAD = ("coefficient", "std. error (fit)", "std. error (scale)", "std. error (total)",
+             "95 % interval (fit and scale)", "dk/d(ln s) per view")
+
+
+def _calibration(record):
+    """(rows, sentences) of the scales' part of k's error, or ([], []) without it."""
+    from fits.lsq_results import CALIBRATION_NOTE, calibration_rows
+
+    rows = calibration_rows({k: record["coefficients"][k] for k in K_NAMES})
+    if not rows:
+        return [], []
+    views = (record.get("calibration") or {}).get("views", {})
+    said = [f"{v}: scale uncertain by {100 * d['scale_rel_uncertainty']:.3g} % ({d['from']})"
+            if d.get("scale_rel_uncertainty") is not None else
+            f"{v}: scale taken as exact ({d['from']})" for v, d in views.items()]
+    return rows, [CALIBRATION_NOTE + " The std. error and 95 % interval of the table above "
+                  "are the fit's part only."] + said
+
+
 def render_markdown(record):
     """report.md: the k table, the initial state, residuals, points and timings."""
     lines = [f"# vidtrack fit: {record['run']}", "",
@@ -32,6 +52,12 @@ def render_markdown(record):
     lines += ["| coefficient | value | std. error | 95 % interval | note |",
               "| --- | --- | --- | --- | --- |"]
     lines += ["| " + " | ".join(r) + " |" for r in _k_rows(record)]
+    cal_rows, cal_text = _calibration(record)
+    if cal_rows:
+        lines += ["", "Calibration (the views' scales):", ""]
+        lines += ["| " + " | ".join(_CAL_HEAD) + " |", "|" + " --- |" * len(_CAL_HEAD)]
+        lines += ["| " + " | ".join(r) + " |" for r in cal_rows]
+        lines += [""] + [f"- {t}" for t in cal_text]
     lines += ["", "| initial state | value |", "| --- | --- |"]
     lines += [f"| {k} | {_html.num(v, 6)} |" for k, v in record["initial_state"].items()]
     lines += ["", "| axis | points | residual RMS (m) |", "| --- | --- | --- |"]
@@ -189,6 +215,12 @@ def render_html(record, *, fit=None, world=None, views=None, tracks_img=None, cu
     rows = [tuple(_html.esc(c) for c in r) for r in _k_rows(record)]
     parts.append(_html.table(("coefficient", "value", "std. error", "95 % interval", "note"),
                              rows, left=1))
+    cal_rows, cal_text = _calibration(record)
+    if cal_rows:
+        parts.append("<h3>Calibration: the views' scales</h3>")
+        parts.append(_html.table(_CAL_HEAD, [tuple(_html.esc(c) for c in r)
+                                             for r in cal_rows], left=1))
+        parts += [f"<p>{_html.esc(t)}</p>" for t in cal_text]
     parts.append("<h2>Initial state and residuals</h2>")
     parts.append(_html.table(("quantity", "value"),
                              [(_html.esc(k), _html.num(v)) for k, v in

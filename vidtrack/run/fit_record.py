@@ -93,11 +93,12 @@ def mean_record(scene, records, *, timings_s):
             ci = None if se is None else [mean - 1.96 * se, mean + 1.96 * se]
         entry = {"value": mean, "stderr": se, "ci95": ci, "determined": True,
                  "throws_used": n}
+        entry.update(_mean_calibration(records, k, mean, se, ci))
         if n < len(records):
             entry["reason"] = f"mean over {n} of {len(records)} throws (not determined in the rest)"
         coeffs[k] = entry
     first = records[0]
-    return {
+    out = {
         "schema": SCHEMA, "run": scene.run_name, "model": first["model"],
         "cp_s_per_m": first["cp_s_per_m"], "factors": dict(scene.factors),
         "coefficients": coeffs,
@@ -117,6 +118,31 @@ def mean_record(scene, records, *, timings_s):
         "vidtrack_version": __version__,
         "scene_hash": scene.hash,
     }
+    if first.get("calibration") is not None:
+        out["calibration"] = first["calibration"]
+    return out
+
+
+def _mean_calibration(records, k, mean, se, ci):
+    """The calibration's part of a mean over throws: the same scales converted every
+    throw, so it does not average down. The mean's sensitivity to view v's scale is the
+    mean of the throws' (dk / d(ln s_v)); sd_cal = sqrt(sum_v (that * rel_v)^2), rel_v
+    from the run's ``calibration``. {} when a throw has no calibration part for k."""
+    cal = records[0].get("calibration")
+    used = [r["coefficients"][k] for r in records if r["coefficients"][k]["determined"]]
+    if cal is None or se is None or ci is None or not used or any(
+            c.get("stderr_calibration") is None for c in used):
+        return {}
+    rel = {v: d["scale_rel_uncertainty"] for v, d in cal["views"].items()}
+    sens = {v: float(np.mean([c["scale_sensitivity"][v] for c in used]))
+            for v in rel if all(v in (c.get("scale_sensitivity") or {}) for c in used)}
+    sd = float(np.sqrt(sum((sens[v] * rel[v]) ** 2 for v in sens)))
+    cal95 = float(special.ndtri(0.975)) * sd
+    return {"stderr_fit": se, "stderr_calibration": sd,
+            "stderr_total": float(np.hypot(se, sd)),
+            "ci95_total": [mean - float(np.hypot(mean - ci[0], cal95)),
+                           mean + float(np.hypot(ci[1] - mean, cal95))],
+            "scale_sensitivity": sens}
 
 
 def dumps(record):

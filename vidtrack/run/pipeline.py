@@ -473,7 +473,11 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
 
     cp = _check_cp(scene, options)
     # tracks.h5 itself too: a track edited by hand (flags set, points removed) is refitted
-    fit_key = stage_key("fit", algorithm=FIT_ALGORITHM, settings={**options.key(), "cp": cp},
+    # the views' scale uncertainties: they change the intervals (not the tracks)
+    scale_rel = {n: v.scale_rel_uncertainty[0] for n, v in scene.views.items()
+                 if hasattr(v, "scale_rel_uncertainty")}
+    fit_key = stage_key("fit", algorithm=FIT_ALGORITHM,
+                        settings={**options.key(), "cp": cp, "scale_rel": scale_rel},
                         inputs={"tracks": tracks_key,
                                 "tracks_file": file_digest(out_dir / "tracks.h5")})
     needed = ("fit.json",) + (REPORT_FILES if options.report else ())
@@ -512,6 +516,19 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
                        f"{out_dir / 'tracks.h5'} (see the report of a run that fits, and "
                        "docs/fit-outputs.md)") from exc
     timings["fit"] = time.perf_counter() - t0
+    # the views' scales in k's error: refits with each scale moved by its uncertainty
+    from vidtrack.run.scale_error import scale_error
+
+    t0 = time.perf_counter()
+    try:
+        scale_part = scale_error(scene, tracks, fit, cp=cp, model=options.model)
+    except ConvergenceError as exc:      # pragma: no cover (the refits catch their own)
+        scale_part = None
+        notes.append(f"the views' scales could not be carried into k: {exc}")
+    if scale_part is not None:
+        fit = fit.with_calibration(scale_part.parts())
+        notes += list(scale_part.notes)
+        timings["calibration"] = time.perf_counter() - t0
     said = {f.check for f in findings}
     notes += [w for w in world.warnings          # not twice: the finding says it
               if not ("x_disagreement" in said and w.startswith("the views disagree on X"))]
@@ -521,6 +538,8 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
              "views": {n: tr.to_dict() for n, tr in tracks.items()},
              "world": world.to_dict(), "stages_reused": ["tracks"] if reused else [],
              "checks": [f.to_dict() for f in findings], "notes": notes}
+    if scale_part is not None:
+        extra["calibration"] = scale_part.to_dict()
     record = throw_record(scene, fit, timings_s=timings, extra=extra)
     pages = None
     if options.report:

@@ -55,6 +55,18 @@ CP_MAX_S_PER_M = 10.0
 #: A calibrated view's name (it names files, overlay_<view>.mp4, and table columns):
 #: no path separators, dots or spreadsheet formula characters.
 VIEW_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}")
+#: A ruler end's pixel uncertainty when the scene gives none (``px_uncertainty``), px: half
+#: a pixel, a careful reading of an end off a frame by eye.
+RULER_PX_UNCERTAINTY = 0.5
+#: Pixel uncertainties accepted for a ruler's ends, px.
+PX_UNCERTAINTY_RANGE = (0.0, 100.0)
+#: Largest relative uncertainty of a view's scale (from a ruler's ends, or stated with
+#: ``m_per_px_rel_uncertainty``): beyond half, a scale is not known at all.
+MAX_SCALE_REL_UNCERTAINTY = 0.5
+#: The keys of a view that say how uncertain its scale is. They change the fit's
+#: intervals, not the tracks, so they are left out of the scene's hash (the fit stage's
+#: key holds them: :attr:`ViewSpec.scale_rel_uncertainty`).
+UNCERTAINTY_KEYS = ("px_uncertainty", "m_per_px_rel_uncertainty")
 #: Largest magnitude of a factor's value in natural units (as the ANOVA's bound).
 MAX_ABS_FACTOR = 1e12
 #: What a view's ``channel`` may be: the grey image the tracker sees (BT.601 luma, one
@@ -66,7 +78,7 @@ _TOP_KEYS = ("schema", "run", "factors", "physics", "straw", "machine", "world",
              "views")
 _VIEW_KEYS = ("source", "fps", "axes", "origin_px", "ruler", "m_per_px", "calibration",
               "camera_distance_m", "frames", "sync_frame", "channel", "target",
-              "exclude_frames", "manual_points")
+              "exclude_frames", "manual_points", "m_per_px_rel_uncertainty")
 
 
 # --------------------------------------------------------------------------- results
@@ -155,16 +167,24 @@ class Straw:
 
 @dataclass(frozen=True)
 class Ruler:
-    """A ruler in a view: ``length_m`` spans ``from_px`` .. ``to_px`` (raw pixels)."""
+    """A ruler in a view: ``length_m`` spans ``from_px`` .. ``to_px`` (raw pixels).
+
+    ``px_uncertainty`` (px) is the standard uncertainty of each end's position, the two
+    ends independent (default :data:`RULER_PX_UNCERTAINTY`).
+    """
 
     length_m: float
     from_px: tuple
     to_px: tuple
+    px_uncertainty: float = RULER_PX_UNCERTAINTY
 
     def to_dict(self):
-        """The ``ruler`` inline table."""
-        return {"length_m": self.length_m, "from_px": list(self.from_px),
-                "to_px": list(self.to_px)}
+        """The ``ruler`` inline table (``px_uncertainty`` only when not the default)."""
+        out = {"length_m": self.length_m, "from_px": list(self.from_px),
+               "to_px": list(self.to_px)}
+        if self.px_uncertainty != RULER_PX_UNCERTAINTY:
+            out["px_uncertainty"] = self.px_uncertainty
+        return out
 
 
 @dataclass(frozen=True)
@@ -227,6 +247,9 @@ class ViewSpec:
         in those frames and are fitted.
     manual_points_text : str or None
         ``manual_points`` as written.
+    m_per_px_rel_uncertainty : float or None
+        The stated relative standard uncertainty of a scale given directly
+        (``m_per_px``, or a calibration file's ``[scale]``); None: not stated.
     """
 
     name: str
@@ -249,6 +272,28 @@ class ViewSpec:
     exclude_frames: tuple = ()
     manual_points: Path | None = None
     manual_points_text: str | None = None
+    m_per_px_rel_uncertainty: float | None = None
+
+    @property
+    def scale_rel_uncertainty(self):
+        """(relative standard uncertainty of the view's scale, where it comes from).
+
+        A ruler of N px whose ends are each uncertain by sigma px (independent) has a
+        length uncertain by sqrt(2) sigma along it: sqrt(2) sigma / N
+        (:func:`calibration.scale.ruler_rel_uncertainty`). A scale given directly has
+        its stated ``m_per_px_rel_uncertainty``; not stated, the uncertainty is None
+        (the fit then takes the scale as exact and says so).
+        """
+        from calibration.scale import ruler_rel_uncertainty
+
+        if self.ruler is not None and self.scale is not None and self.scale.span_px:
+            r = self.ruler
+            rel = ruler_rel_uncertainty(self.scale.span_px, r.px_uncertainty)
+            return rel, (f"ruler of {self.scale.span_px:.4g} px, ends +- {r.px_uncertainty:g} "
+                         f"px: sqrt(2) x {r.px_uncertainty:g} / {self.scale.span_px:.4g}")
+        if self.m_per_px_rel_uncertainty is not None:
+            return self.m_per_px_rel_uncertainty, "m_per_px_rel_uncertainty as stated"
+        return None, "not stated (m_per_px_rel_uncertainty)"
 
     def manual_points_in(self, folder):
         """The manual points file for the run or throw folder ``folder`` (None: none)."""
@@ -298,6 +343,8 @@ class ViewSpec:
             out["ruler"] = self.ruler.to_dict()
         if self.m_per_px_given is not None:
             out["m_per_px"] = self.m_per_px_given
+        if self.m_per_px_rel_uncertainty is not None:
+            out["m_per_px_rel_uncertainty"] = self.m_per_px_rel_uncertainty
         if self.calibration_text is not None:
             out["calibration"] = self.calibration_text
         if self.camera_distance_m is not None:

@@ -47,9 +47,13 @@ from vidtrack.scene.model import (
     GRAVITY_RANGE_M_S2,
     MASS_RANGE_KG,
     MAX_ABS_FACTOR,
+    MAX_SCALE_REL_UNCERTAINTY,
+    PX_UNCERTAINTY_RANGE,
+    RULER_PX_UNCERTAINTY,
     SCENE_FILE,
     SCHEMA,
     SPEED_RANGE_KMH,
+    UNCERTAINTY_KEYS,
     VIEW_AXES,
     VIEW_NAME,
     Physics,
@@ -121,10 +125,15 @@ def _parse_scale(ck, view, path, folder):
         if not isinstance(r, dict):
             ck.fail(rp, "must be a table { length_m = ..., from_px = [u, v], to_px = [u, v] }, "
                     f"got {_type_name(r)} {_show(r)}")
-        ck.keys(r, ("length_m", "from_px", "to_px"), rp)
+        ck.keys(r, ("length_m", "from_px", "to_px", "px_uncertainty"), rp)
         ruler = Ruler(length_m=ck.number(r, "length_m", f"{rp}.length_m", required=True, gt=0),
                       from_px=ck.pair(r, "from_px", f"{rp}.from_px", required=True),
-                      to_px=ck.pair(r, "to_px", f"{rp}.to_px", required=True))
+                      to_px=ck.pair(r, "to_px", f"{rp}.to_px", required=True),
+                      px_uncertainty=ck.number(
+                          r, "px_uncertainty", f"{rp}.px_uncertainty",
+                          default=RULER_PX_UNCERTAINTY, ge=0,
+                          within=(*PX_UNCERTAINTY_RANGE, "px (each end's standard "
+                                  "uncertainty)")))
         if ruler.from_px == ruler.to_px:
             ck.fail(rp, f"spans 0 pixels: from_px {list(ruler.from_px)} equals to_px "
                     f"{list(ruler.to_px)}; expected two different points")
@@ -165,6 +174,13 @@ def _parse_scale(ck, view, path, folder):
             ck.fail(f"{path}.ruler", str(exc))
         scale = Scale(m_per_px=scale.m_per_px, method="ruler", length_m=ruler.length_m,
                       from_px=ruler.from_px, to_px=ruler.to_px, span_px=scale.span_px)
+        rel = math.sqrt(2.0) * ruler.px_uncertainty / scale.span_px
+        if rel > MAX_SCALE_REL_UNCERTAINTY:
+            ck.fail(f"{path}.ruler.px_uncertainty", f"= {ruler.px_uncertainty:g} px on a ruler "
+                    f"of {scale.span_px:.4g} px gives a scale uncertain by {100 * rel:.3g} % "
+                    f"(sqrt(2) x {ruler.px_uncertainty:g} / {scale.span_px:.4g}); expected at "
+                    f"most {100 * MAX_SCALE_REL_UNCERTAINTY:g} %: read the ends more closely "
+                    "or use a longer ruler")
     elif m_given is not None:
         scale = given_scale(m_given)
     elif file_scale is not None:
@@ -178,6 +194,19 @@ def _parse_scale(ck, view, path, folder):
         ck.fail(path, "needs a scale: expected ruler = { length_m, from_px, to_px }, "
                 "m_per_px, or calibration = \"FILE\"")
     return scale, ruler, m_given, calib_path, calib_text, camera
+
+
+def _scale_rel_uncertainty(ck, view, path, ruler):
+    """A view's ``m_per_px_rel_uncertainty`` (None when not given)."""
+    key = f"{path}.m_per_px_rel_uncertainty"
+    rel = ck.number(view, "m_per_px_rel_uncertainty", key, ge=0,
+                    within=(0.0, MAX_SCALE_REL_UNCERTAINTY,
+                            "(a relative standard uncertainty, e.g. 0.005 for 0.5 %)"))
+    if rel is not None and ruler is not None:
+        ck.fail(key, f"is for a scale given directly (m_per_px or a calibration file's "
+                "[scale]); a ruler's uncertainty is its ends': give "
+                f"{path}.ruler.px_uncertainty (px) instead")
+    return rel
 
 
 def _frames_and_sync(ck, view, path):
@@ -233,6 +262,7 @@ def _parse_view(ck, name, view, folder):
     origin = ck.pair(view, "origin_px", f"{path}.origin_px", required=True,
                      what="[u, v]: the pixel of the world origin O")
     scale, ruler, m_given, calib_path, calib_text, camera = _parse_scale(ck, view, path, folder)
+    rel = _scale_rel_uncertainty(ck, view, path, ruler)
     distance = ck.number(view, "camera_distance_m", f"{path}.camera_distance_m", gt=0,
                          within=(*CAMERA_DISTANCE_RANGE_M, "m"))
 
@@ -247,7 +277,8 @@ def _parse_view(ck, name, view, folder):
                     calibration=calib_path, calibration_text=calib_text, camera=camera,
                     frames=frames, sync_frame=sync, channel=channel,
                     camera_distance_m=distance, target=target, exclude_frames=exclude,
-                    manual_points=manual, manual_points_text=manual_text)
+                    manual_points=manual, manual_points_text=manual_text,
+                    m_per_px_rel_uncertainty=rel)
 
 
 def _example_axes(name):
@@ -366,8 +397,19 @@ def parse_scene(data, *, folder, label=SCENE_FILE, path=None):
     calib = {name: {"camera": v.camera.to_dict() if v.camera is not None else None,
                     "scale": v.scale.to_dict() if v.scale is not None else None}
              for name, v in views.items() if v.calibration is not None and world is None}
-    digest = _canonical_hash({"scene": scene.to_dict(), "calibration": calib})
+    # the scales' uncertainties change the fit's intervals, not the tracks: out of the hash
+    # (the fit stage's key holds them), so stating one does not track the footage again
+    digest = _canonical_hash({"scene": _without_uncertainties(scene.to_dict()),
+                              "calibration": calib})
     return dataclasses.replace(scene, hash=digest)
+
+
+def _without_uncertainties(content):
+    """``content`` (:meth:`Scene.to_dict`) without the keys of :data:`UNCERTAINTY_KEYS`."""
+    if isinstance(content, dict):
+        return {k: _without_uncertainties(v) for k, v in content.items()
+                if k not in UNCERTAINTY_KEYS}
+    return content
 
 
 def _parse_track(ck, data):
