@@ -5,7 +5,8 @@ or the detection at the user's ``target`` pixel) both ways in time: the next fra
 position is extrapolated by a quadratic in time through the chain's last
 ``predict_frames`` points, and the detection taken is the one nearest it within a gate
 of ``max(gate_px, gate_sizes * size)`` pixels (half again for every frame missed), its
-distance weighed by how much its size differs from the chain's. A chain ends after ``max_gap`` frames without one.
+distance weighed by how much its size and its contrast differ from the chain's. A chain
+ends after ``max_gap`` frames without one.
 Chains through the same detections are one; two chains that one flight explains across
 a gap (the object hidden behind something for longer than ``max_gap``) are joined when
 each one's path, carried over the gap, meets the other's and their joint score exceeds
@@ -15,7 +16,9 @@ Each chain's **flight score** is the length of the path of its flight (the longe
 one cubic in time explains, :func:`flight_segment`: free flight with a smoothly changing
 drag) times the share of that span's frames that a local quadratic through their
 neighbours predicts within ``flight_residual_px`` (or ``flight_residual_sizes`` of its
-size), seen whole and not shadow-like (:mod:`vidtrack.track.detect`); a chain whose
+size), seen whole, not shadow-like (:mod:`vidtrack.track.detect`) and of the flight's
+own contrast (within ``LEVEL_RATIO``: a chain that went over to a dimmer rod where the
+two crossed keeps only the frames of one of them); a chain whose
 flight is shorter than ``min_travel_sizes`` of its own sizes scores nothing (something
 resting, rocking in place, a person shifting, is not thrown). The chain with the highest score is the object. When a
 second chain seen at the same time (in half its frames or more), not a shadow and
@@ -44,6 +47,12 @@ JOIN_GAIN = 1.1
 #: Two chains whose points in a frame lie within this distance (px) share a detection.
 SAME_PX = 1.0
 
+#: A chain's frames whose contrast (the 90th percentile of the detection's difference
+#: from the background) lies within this factor of the flight's median are the same
+#: object's; growing, a detection's cost grows with how far its contrast is from the
+#: chain's.
+LEVEL_RATIO = 1.5
+
 
 class Chain:
     """A chain: ``pick[i]`` is the index of its detection in frame position ``i`` (-1:
@@ -57,6 +66,7 @@ class Chain:
         self.v = np.full(n, np.nan)
         self.size = np.full(n, np.nan)
         self.weight = np.zeros(n)
+        self.level = np.full(n, np.nan)
         self.shadow = np.zeros(n, bool)
         self.major = np.full(n, np.nan)
         self.minor = np.full(n, np.nan)
@@ -65,6 +75,7 @@ class Chain:
             self.u[i], self.v[i] = d["u"], d["v"]
             self.size[i] = np.sqrt(max(int(d["area"]), 1))
             self.weight[i] = d["weight"]
+            self.level[i] = d["level"]
             self.shadow[i] = d["shadow"]
             half = 0.5 * (float(d["muu"]) + float(d["mvv"]))
             root = float(np.hypot(0.5 * (float(d["muu"]) - float(d["mvv"])), float(d["muv"])))
@@ -85,7 +96,7 @@ class Chain:
         return i, (float(self.u[i]), float(self.v[i]))
 
 
-def _step(chain_f, chain_u, chain_v, chain_s, fi, settings, dets):
+def _step(chain_f, chain_u, chain_v, chain_s, fi, settings, dets, chain_l=None):
     """The detection of frame ``fi`` that continues the chain (index or -1)."""
     if len(dets) == 0:
         return -1, None
@@ -109,6 +120,10 @@ def _step(chain_f, chain_u, chain_v, chain_s, fi, settings, dets):
     dist = np.hypot(dets["u"] - pu, dets["v"] - pv)
     ds = np.sqrt(np.maximum(dets["area"], 1).astype(float))
     cost = dist * (1.0 + np.abs(np.log(ds / size)))
+    if chain_l is not None:
+        # (and by how much its contrast differs: a dimmer rod crossing the object)
+        lev = float(np.median(chain_l[-k:]))
+        cost = cost * (1.0 + np.abs(np.log(np.maximum(dets["level"], 1e-3) / max(lev, 1e-3))))
     cost = np.where(dist <= gate, cost, np.inf)
     j = int(np.argmin(cost))
     if not np.isfinite(cost[j]):
@@ -136,10 +151,12 @@ def grow(detections, seed, settings):
         cu = [float(x["u"]) for x in d]
         cv = [float(x["v"]) for x in d]
         cs = [float(np.sqrt(max(int(x["area"]), 1))) for x in d]
+        cl = [float(x["level"]) for x in d]
         fi = f[-1] + direction
         while 0 <= fi < n and abs(fi - f[-1]) <= settings.max_gap + 1:
             ff = f if direction == 1 else [-x for x in f]
-            j, _err = _step(ff, cu, cv, cs, fi * direction, settings, detections[fi])
+            j, _err = _step(ff, cu, cv, cs, fi * direction, settings, detections[fi],
+                            chain_l=cl)
             if j >= 0:
                 det = detections[fi][j]
                 pick[fi] = j
@@ -147,6 +164,7 @@ def grow(detections, seed, settings):
                 cu.append(float(det["u"]))
                 cv.append(float(det["v"]))
                 cs.append(float(np.sqrt(max(int(det["area"]), 1))))
+                cl.append(float(det["level"]))
             fi += direction
     return pick
 
@@ -239,7 +257,11 @@ def _score(chain, settings, detections):
         return 0.0
     chain.explained[idx[seg]] = True
     inside = (idx >= idx[seg][0]) & (idx <= idx[seg][-1])
-    good = np.count_nonzero(seg & ~chain.shadow[idx]) / max(np.count_nonzero(inside), 1)
+    # (of one object: a chain that went over to something of another contrast where
+    # the two crossed keeps the frames of its own)
+    lev = np.log(np.maximum(chain.level[idx], 1e-3))
+    alike = np.abs(lev - np.median(lev[seg])) <= np.log(LEVEL_RATIO)
+    good = np.count_nonzero(seg & alike & ~chain.shadow[idx]) / max(np.count_nonzero(inside), 1)
     return float(length * good)
 
 
