@@ -30,12 +30,25 @@ _MODEL_NAMES = {"quadratic": "quadratic drag (Chen 2018)", "linear": "linear dra
                 "free": "drag-free (Hou 2019)"}
 
 
+def with_total(c):
+    """A coefficient's fit.json fields as the specification has them: where the
+    calibration's part is known, ``stderr`` and ``ci95`` are of fit and calibration
+    together (``stderr_total``, ``ci95_total``), ``stderr_fit`` and ``ci95_fit`` the
+    fit's own; ``c`` is changed and returned."""
+    if c.get("stderr_total") is not None:
+        c["ci95_fit"] = c["ci95"]
+        c["stderr"] = c["stderr_total"]
+        c["ci95"] = c["ci95_total"]
+    return c
+
+
 @dataclass(frozen=True)
 class Coefficient:
     """One fitted coefficient: value, standard error and 95 % interval, or why not.
 
-    ``stderr`` and ``ci95`` are the fit's own part (the scatter of the points). When the
-    calibration's part is known (:meth:`ThrowFit.with_calibration`), ``stderr_calibration``
+    ``stderr`` and ``ci95`` are the fit's own part (the scatter of the points; in
+    :meth:`to_dict`, fit.json's fields, they become the total where the calibration's
+    part is known, :func:`with_total`). When the calibration's part is known (:meth:`ThrowFit.with_calibration`), ``stderr_calibration``
     is the standard error that the views' scales carry into the coefficient (a
     systematic part, shared by every throw converted with the same scales), and
     ``scale_sensitivity`` gives per view dk / d(ln s): the change of k per relative change
@@ -89,7 +102,7 @@ class Coefficient:
             out["ci95_total"] = list(self.ci95_total)
         if self.scale_sensitivity is not None:
             out["scale_sensitivity"] = dict(self.scale_sensitivity)
-        return out
+        return with_total(out)
 
 
 @dataclass(frozen=True)
@@ -461,7 +474,8 @@ def calibration_rows(coefficients):
             continue
         ci = c.get("ci95_total")
         sens = c.get("scale_sensitivity") or {}
-        rows.append((k, _num(c["stderr"], 3), _num(c["stderr_calibration"], 3),
+        rows.append((k, _num(c.get("stderr_fit", c["stderr"]), 3),
+                     _num(c["stderr_calibration"], 3),
                      _num(c["stderr_total"], 3),
                      f"{_num(ci[0], 5)} .. {_num(ci[1], 5)}" if ci else "",
                      ", ".join(f"{v} {_num(d, 3)}" for v, d in sens.items())))

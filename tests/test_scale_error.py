@@ -51,10 +51,12 @@ def test_a_ruler_read_off_moves_k_as_the_delta_method_predicts(run, tmp_path, vi
             math.sqrt(2) * 0.5 / _span(base, view), rel=1e-3)
     for k in K:
         c = base["coefficients"][k]
-        assert c["stderr_fit"] == c["stderr"]
-        assert c["stderr_total"] == pytest.approx(math.hypot(c["stderr"],
+        # (as the specification has it: stderr and ci95 of both parts, the fit's own
+        # beside them)
+        assert c["stderr"] == c["stderr_total"] and c["ci95"] == c["ci95_total"]
+        assert c["stderr_total"] == pytest.approx(math.hypot(c["stderr_fit"],
                                                              c["stderr_calibration"]))
-        assert c["ci95_total"][0] < c["ci95"][0] and c["ci95_total"][1] > c["ci95"][1]
+        assert c["ci95"][0] < c["ci95_fit"][0] and c["ci95"][1] > c["ci95_fit"][1]
     # both rulers read 0.4 px long (one end off), as a person might
     moved = tmp_path / "moved"
     shutil.copytree(run, moved, ignore=shutil.ignore_patterns("vidtrack"))
@@ -81,7 +83,7 @@ def test_a_ruler_read_off_moves_k_as_the_delta_method_predicts(run, tmp_path, vi
             assert shift == pytest.approx(predicted, rel=0.05), (k, shift, predicted)
             # and far outside the fit's own interval for k4 (the case)
     assert abs(after["coefficients"]["k4"]["value"] - base["coefficients"]["k4"]["value"]) \
-        > 2 * base["coefficients"]["k4"]["stderr"]
+        > 2 * base["coefficients"]["k4"]["stderr_fit"]
     # the terminal line gives both parts
     r = vidtrack_cli("fit", str(moved), "-q")
     assert r.returncode == 0 and " ± " in r.stdout and "± fit ± scale" in r.stdout

@@ -69,15 +69,15 @@ def add_arguments(parser):
 #: Said under the table when any k carries the calibration's part.
 SCALE_LEGEND = ("k: value ± fit ± scale (standard errors): the fit's own (the points' "
                 "scatter), then the views' scales' (systematic: shared by every throw of "
-                "the run, averaging throws does not reduce it); 95 % intervals of both in "
-                "fit.json (ci95_total)")
+                "the run, averaging throws does not reduce it); fit.json's stderr and ci95 "
+                "hold both, stderr_fit and ci95_fit the fit's own")
 
 
 def _k_cell(c):
     """``2.203 ± 0.0013 ± 0.016`` (value ± fit ± scale), ``n.d.`` when not determined."""
     if not c["determined"]:
         return "n.d."
-    cell = f"{c['value']:.4g} ± {c['stderr']:.2g}"
+    cell = f"{c['value']:.4g} ± {c.get('stderr_fit', c['stderr']):.2g}"
     if c.get("stderr_calibration") is not None:
         cell += f" ± {c['stderr_calibration']:.2g}"
     return cell

@@ -5,6 +5,7 @@ import json
 import numpy as np
 from scipy import special
 
+from fits.lsq_results import with_total
 from vidtrack import __version__
 
 SCHEMA = 1
@@ -88,12 +89,14 @@ def mean_record(scene, records, *, timings_s):
             half = float(special.stdtrit(n - 1, 0.975) * se)
             ci = [mean - half, mean + half]
         else:
-            se = records[[r["coefficients"][k]["determined"] for r in records].index(True)][
-                "coefficients"][k]["stderr"]
+            one = records[[r["coefficients"][k]["determined"] for r in records].index(True)][
+                "coefficients"][k]
+            se = one.get("stderr_fit", one["stderr"])
             ci = None if se is None else [mean - 1.96 * se, mean + 1.96 * se]
         entry = {"value": mean, "stderr": se, "ci95": ci, "determined": True,
                  "throws_used": n}
         entry.update(_mean_calibration(records, k, mean, se, ci))
+        with_total(entry)
         if n < len(records):
             entry["reason"] = f"mean over {n} of {len(records)} throws (not determined in the rest)"
         coeffs[k] = entry
