@@ -18,6 +18,7 @@ xfail(strict=True) with what was measured; docs/synth.md, "Distractors", has the
 import csv
 import json
 import math
+import shutil
 
 import numpy as np
 import pytest
@@ -325,18 +326,28 @@ def test_bad_distractor_options_exit_2(tmp_path, vidtrack_cli, bad):
 
 @pytest.fixture(scope="module")
 def fitted(tmp_path_factory):
-    """case -> (run folder, CompletedProcess of vidtrack fit), rendered and fitted once."""
+    """(case, engine) -> (run folder, CompletedProcess of vidtrack fit), rendered and
+    fitted once; engine None: the default tracker, else ``[track] engine = ...``."""
     from conftest import run_vidtrack
 
-    cache = {}
+    cache, rendered = {}, {}
 
-    def get(name):
-        if name not in cache:
-            out = tmp_path_factory.mktemp(name) / "run"
-            res = run_vidtrack("synth", out, *BASE, *CASES[name][0], "-q")
-            assert res.returncode == 0, res.stderr
-            cache[name] = (out, run_vidtrack("fit", out, "--json", "--no-report", "-q"))
-        return cache[name]
+    def get(name, engine=None):
+        if (name, engine) not in cache:
+            if name not in rendered:
+                src = tmp_path_factory.mktemp(name) / "rendered"
+                res = run_vidtrack("synth", src, *BASE, *CASES[name][0], "-q")
+                assert res.returncode == 0, res.stderr
+                rendered[name] = src
+            # (each engine fits its own copy of the one render)
+            out = tmp_path_factory.mktemp(f"{name}_{engine or 'default'}") / "run"
+            shutil.copytree(rendered[name], out)
+            if engine is not None:
+                scene = out / "scene.toml"
+                scene.write_text(scene.read_text() + f'\n[track]\nengine = "{engine}"\n')
+            cache[name, engine] = (out, run_vidtrack("fit", out, "--json", "--no-report",
+                                                     "-q"))
+        return cache[name, engine]
     return get
 
 
@@ -355,11 +366,43 @@ def _unflagged(run):
 _XFAIL = {}
 
 
+#: ... and those the flight tracker (``[track] engine = "flight"``) does not yet pass, with
+#: what was measured (vidtrack bench track --real gives every row).
+_FLIGHT_XFAIL = {
+    "rider_riding": "top view: 131 of 372 frames kept (the rider beside the straw makes "
+                    "most frames 'touched'); the front view's are within 0.1 px",
+    "rider_crossing": "front view: frame 193 nearer the rider than the straw",
+    "dark_highlight": "front view: frames 2-11 on the blade up to 1.9 px off, unflagged "
+                      "(the release not found on a straw of two polarities)",
+    "dark_highlight_riding": "front view: 283 frames 2-3.6 px off (a rod of two "
+                             "polarities is not measured by the bar; its centroid "
+                             "takes the rider)",
+    "post": "front view: frames 167-172, coming out from behind the post, 0.5-2.9 px off",
+    "arm_along": "k1 2.116 against 2.2 (-3.8 %): the arm hiding part of the straw for "
+                 "60 frames shifts it slowly, which no path test sees",
+    "compact_arm_along": "k1 2.124 against 2.2 (-3.5 %), as arm_along",
+}
+
+
 @pytest.mark.parametrize("name", [
     pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=_XFAIL[n])) if n in _XFAIL
     else n for n in CASES])
 def test_fit_against_truth(fitted, name):
-    run, res = fitted(name)
+    _check_fit_against_truth(fitted, name)
+
+
+@pytest.mark.parametrize("name", [
+    pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=_FLIGHT_XFAIL[n]))
+    if n in _FLIGHT_XFAIL else n for n in CASES])
+def test_fit_against_truth_with_the_flight_tracker(fitted, name):
+    _check_fit_against_truth(fitted, name, engine="flight")
+
+
+def _check_fit_against_truth(fitted, name, engine=None):
+    """Every unflagged point of every view within 0.5 px of the straw's own coverage
+    centroid and nearer it than any distractor, enough of them, and k within the
+    suite's tolerances."""
+    run, res = fitted(name, engine)
     assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
     truth = json.loads((run / "truth.json").read_text())
     record = json.loads(res.stdout)
@@ -433,7 +476,6 @@ def test_a_highlighted_straw_with_a_rider_across_it_fits_with_a_target(
     stay unflagged at 0.5 to 0.76 px,
     over the 0.5 px of the other cases: the straw's band there still holds 1.5 px of the
     rider beside it."""
-    import shutil
 
     from conftest import run_vidtrack
 
