@@ -50,7 +50,7 @@ def test_a_shift_of_60_frames_is_found(tmp_path):
     assert (t0["top"] - t0["front"]) * FPS == pytest.approx(60.0, abs=0.01)
     k4 = record["coefficients"]["k4"]
     assert k4["determined"] and k4["value"] == pytest.approx(21.30, rel=0.002)
-    assert k4["stderr"] < 0.03
+    assert k4["stderr_fit"] < 0.03
 
 
 def test_a_spliced_footage_is_said_to_cover_part_of_the_flight(tmp_path):
@@ -61,4 +61,4 @@ def test_a_spliced_footage_is_said_to_cover_part_of_the_flight(tmp_path):
     assert "note: world track: view top measures z over" in stderr
     k4 = record["coefficients"]["k4"]
     # what the 54 frames can tell: the truth within the interval, which is wide
-    assert abs(k4["value"] - 21.3) < 2 * k4["stderr"] and k4["stderr"] > 0.5
+    assert abs(k4["value"] - 21.3) < 2 * k4["stderr_fit"] and k4["stderr_fit"] > 0.5

@@ -175,7 +175,9 @@ def _parse_scale(ck, view, path, folder):
         scale = Scale(m_per_px=scale.m_per_px, method="ruler", length_m=ruler.length_m,
                       from_px=ruler.from_px, to_px=ruler.to_px, span_px=scale.span_px)
         rel = math.sqrt(2.0) * ruler.px_uncertainty / scale.span_px
-        if rel > MAX_SCALE_REL_UNCERTAINTY:
+        # (a stated uncertainty that makes the scale meaningless is refused; the default
+        # half pixel on a short ruler is carried into the intervals as it is)
+        if rel > MAX_SCALE_REL_UNCERTAINTY and ruler.px_uncertainty != RULER_PX_UNCERTAINTY:
             ck.fail(f"{path}.ruler.px_uncertainty", f"= {ruler.px_uncertainty:g} px on a ruler "
                     f"of {scale.span_px:.4g} px gives a scale uncertain by {100 * rel:.3g} % "
                     f"(sqrt(2) x {ruler.px_uncertainty:g} / {scale.span_px:.4g}); expected at "
