@@ -31,7 +31,7 @@ _MODEL_NAMES = {"quadratic": "quadratic drag (Chen 2018)", "linear": "linear dra
 
 
 def with_total(c):
-    """A coefficient's fit.json fields as the specification has them: where the
+    """A coefficient's fit.json fields as docs/fit-outputs.md describes them: where the
     calibration's part is known, ``stderr`` and ``ci95`` are of fit and calibration
     together (``stderr_total``, ``ci95_total``), ``stderr_fit`` and ``ci95_fit`` the
     fit's own; ``c`` is changed and returned."""

@@ -367,3 +367,22 @@ def test_a_rod_is_measured_by_its_bar_not_moved_by_a_rod_beside_it(angle):
                       (w * yy[near]).sum() / w.sum() - centre[1])
     print(f"\nangle {angle}: bar {err:.3f} px off, centroid {pulled:.3f} px")
     assert err < 0.1 and err < pulled / 3.0
+
+
+def test_the_bars_jacobian_is_its_models_derivative():
+    """The analytic Jacobian of the bar (vidtrack.track.rod) against central differences
+    of its model, at a blur under a pixel and at a wide, blurred bar."""
+    from vidtrack.track import rod
+
+    rng = np.random.default_rng(1)
+    x, y = rng.uniform(0, 30, 300), rng.uniform(0, 20, 300)
+    for p in ([15.2, 10.3, 0.4, 8.0, 1.3, 0.9, 0.6, 0.9],
+              [14.0, 9.0, -1.2, 5.0, 3.5, 1.2, 2.5, 4.0]):
+        p = np.array(p)
+        jac = rod._jacobian(p, x, y)
+        num = np.empty_like(jac)
+        for i in range(p.size):
+            dp = np.zeros(p.size)
+            dp[i] = 1e-6
+            num[:, i] = (rod._model(p + dp, x, y) - rod._model(p - dp, x, y)) / 2e-6
+        assert np.abs(jac - num).max() < 1e-7

@@ -10,10 +10,10 @@ each point's prediction and the local acceleration.
 
 import numpy as np
 
+from vidtrack.track.background import MAD_TO_SIGMA
+
 __all__ = ["local_quadratic", "robust_scale", "MAD_TO_SIGMA"]
 
-#: From a median absolute deviation to the standard deviation of a normal law.
-MAD_TO_SIGMA = 1.482602218505602
 
 
 def robust_scale(x, *, floor=0.0):
