@@ -378,9 +378,6 @@ _FLIGHT_XFAIL = {
                              "polarities is not measured by the bar; its centroid "
                              "takes the rider)",
     "post": "front view: frames 167-172, coming out from behind the post, 0.5-2.9 px off",
-    "arm_along": "k1 2.116 against 2.2 (-3.8 %): the arm hiding part of the straw for "
-                 "60 frames shifts it slowly, which no path test sees",
-    "compact_arm_along": "k1 2.124 against 2.2 (-3.5 %), as arm_along",
 }
 
 

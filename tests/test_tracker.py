@@ -167,6 +167,35 @@ def test_no_release_in_free_flight_or_where_the_acceleration_barely_changes():
     assert rel is None and "not the ride's strong acceleration" in note
 
 
+def test_a_ride_that_touches_nothing_visible_is_told_from_drag_by_the_push():
+    # a straw riding a tooth it hides (no frame touched): the ride's extra acceleration
+    # turns and pushes it (within 120 degrees of the velocity), a release; a glider's
+    # drag falling off as it slows (an extra braking before the knot, against the
+    # velocity, as strong as the ride's) is not
+    n, release = 150, 12
+    tau = np.arange(n, dtype=float)
+    none = np.zeros(n, bool)
+    every = np.ones(n, bool)
+    push = float(np.cos(np.radians(120.0)))
+    rng = np.random.default_rng(3)
+    ride = _ride_then_flight(n, release) + 0.03 * rng.standard_normal((n, 2))
+    rel, _, note = _refine.find_release(tau, ride, every, first_in_open=False,
+                                        attached=none)
+    assert rel is None and "touches nothing" in note
+    rel, rel_tau, note = _refine.find_release(tau, ride, every, first_in_open=False,
+                                              attached=none, pushed_cos=push)
+    assert rel is not None and abs(rel_tau - release) <= 1.0 and "ride" in note
+    free = _front_px(position(tau / FPS, STATE, K, CP))
+    vel = np.gradient(free, axis=0)[20]
+    acc = 2.0 * np.polyfit(tau[20:], free[20:], 2)[0]
+    brake = -4.0 * np.hypot(*acc) * vel / np.hypot(*vel)
+    braked = free + 0.5 * brake * np.clip(20.0 - tau, 0.0, None)[:, None] ** 2
+    pos = braked + 0.01 * rng.standard_normal((n, 2))
+    rel, _, note = _refine.find_release(tau, pos, every, first_in_open=False,
+                                        attached=none, pushed_cos=push)
+    assert rel is None and "touches nothing" in note
+
+
 def test_knot_search_rss_matches_one_least_squares_solve_per_knot():
     # the vectorised projection against numpy's lstsq of the whole design, knot by knot,
     # with zero weights (the biweight's dropped points) and knots near the first points

@@ -27,7 +27,9 @@ ride on a blade or in a hand to free flight (:func:`vidtrack.track.release.find_
 a spline knot fitted robustly to the chain's first ``release_window`` frames on its
 path, counted when it is significant (``release_significance``), the acceleration before
 it at least ``release_ratio`` times that after, and something touched the object
-within ``release_touch_frames`` before it); the frames before it are PRE_RELEASE.
+within ``release_touch_frames`` before it or the extra acceleration before it pushed
+the object rather than braked it (``release_push_deg``)); the frames before it are
+PRE_RELEASE.
 """
 
 import warnings
@@ -166,7 +168,8 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
             idx.astype(float), uv, ~off, first_in_open=not touched[0],
             window=settings.release_window, significance=settings.release_significance,
             min_ratio=settings.release_ratio, attached=touched,
-            attached_within=float(settings.release_touch_frames))
+            attached_within=float(settings.release_touch_frames),
+            pushed_cos=float(np.cos(np.radians(settings.release_push_deg))))
         if pos is not None and pos > 0:
             release = int(idx[pos])
             flags[idx[idx < release]] |= PRE_RELEASE

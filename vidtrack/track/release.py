@@ -74,7 +74,7 @@ def _best_knot(ts, p, w, lo, hi, scale):
 
 def find_release(tau, pos, usable_mask, *, first_in_open, window=80, min_before=2,
                  min_after=10, significance=25.0, min_ratio=2.0, huber=2.5, attached=None,
-                 attached_within=10.0):
+                 attached_within=10.0, pushed_cos=None):
     """Release (first frame of free flight) from where the path's acceleration jumps.
 
     Position and velocity are continuous at the release; the acceleration is not:
@@ -125,6 +125,14 @@ def find_release(tau, pos, usable_mask, *, first_in_open, window=80, min_before=
         Given, a knot counts only when such a frame lies within ``attached_within``
         frames before it: an object flying free before the knot was not released there
         (a light object's drag falls off as it slows down, which a knot can mimic).
+    pushed_cos : float, optional
+        Given, a knot with no touch beside it counts all the same when the ride's extra
+        acceleration (before the knot, less the free flight's) points along the
+        velocity at the knot at least this much (the cosine of the angle between them):
+        a blade or a hand pushes what it carries (or turns it, centripetally: cosine
+        near 0), while drag falling off as a light object slows down leaves an extra
+        braking before the knot, against the velocity (cosine near -1). A straw riding
+        a blade that it hides from the camera touches nothing visible.
 
     Returns
     -------
@@ -177,12 +185,23 @@ def find_release(tau, pos, usable_mask, *, first_in_open, window=80, min_before=
     t_rel = tau[idx[0]] + tk
     if attached is not None:
         near = (tau >= t_rel - attached_within) & (tau <= t_rel + 1.0)
-        if not np.any(np.asarray(attached, bool) & near):
+        touched = bool(np.any(np.asarray(attached, bool) & near))
+        if not touched and not (pushed_cos is not None
+                                and _push_cosine(coef, tks, scale) >= pushed_cos):
             return _first_seen(idx, first_in_open, free=(a_ride, a_free))
     after = np.flatnonzero(tau >= t_rel - 0.2)
     return (int(after[0]), float(t_rel),
             f"the path's acceleration drops from {a_ride:.3g} to {a_free:.3g} px/frame^2 "
             "here (end of the ride on the blade)")
+
+
+def _push_cosine(coef, tks, scale):
+    """The cosine of the angle between the ride's extra acceleration (the knot term's)
+    and the path's velocity at the knot (1: pushed along, -1: braked)."""
+    vel = (coef[1] + 2.0 * coef[2] * tks + 3.0 * coef[3] * tks ** 2) / scale
+    extra = 2.0 * coef[4] / scale ** 2
+    norm = float(np.hypot(*vel) * np.hypot(*extra))
+    return float(vel @ extra) / norm if norm > 0 else -1.0
 
 
 def _first_seen(idx, first_in_open, weak=None, free=None):

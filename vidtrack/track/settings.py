@@ -125,7 +125,13 @@ class TrackerSettings:
     release_touch_frames : int
         ... and when a frame where something touched the object (its appearance flagged)
         lies within this many frames before it: an object flying free before the knot
-        was not released there (frames).
+        was not released there (frames);
+    release_push_deg : float
+        ... or when, nothing seen touching it, the ride's extra acceleration lies within
+        this angle of the velocity at the knot (degrees, at most 180): a blade or a hand
+        pushes (near 0) or turns (near 90) what it carries (a straw on a blade hides the
+        blade under it), while drag falling off as a light object slows down leaves a
+        braking before the knot (near 180).
     """
 
     k_sigma: float = 5.0
@@ -158,6 +164,7 @@ class TrackerSettings:
     release_significance: float = 25.0
     release_ratio: float = 2.0
     release_touch_frames: int = 10
+    release_push_deg: float = 120.0
 
     def __post_init__(self):
         for f in fields(self):
@@ -172,6 +179,9 @@ class TrackerSettings:
         if self.k_grow > self.k_sigma:
             raise VidtrackError(f"track.k_grow must be at most track.k_sigma "
                                 f"({self.k_sigma:g}), got {self.k_grow:g}")
+        if self.release_push_deg > 180.0:
+            raise VidtrackError(f"track.release_push_deg must be at most 180 (degrees), got "
+                                f"{self.release_push_deg:g}")
         if self.shadow_ratio_min >= 1.0 or self.shadow_texture_min >= 1.0:
             raise VidtrackError("track.shadow_ratio_min and track.shadow_texture_min must be "
                                 "below 1")
