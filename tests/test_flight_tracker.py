@@ -247,9 +247,10 @@ def test_scene_track_table_is_checked(tmp_path, vidtrack_cli):
 
 def test_run42_fitted_with_the_flight_tracker(tmp_path, vidtrack_cli):
     """The sample run with ``[track] engine = "flight"``: the fit's k1..k4 within the
-    suite's tolerances of the truth it was rendered from (measured: 2.193, 2.502, 4.598,
-    21.28 against 2.2, 2.5, 4.6, 21.3), and the tracks keyed on the engine: the rules
-    tracker's tracks of the same run are not reused."""
+    suite's tolerances of the truth it was rendered from (measured: 2.201, 2.500, 4.596,
+    21.33 against 2.2, 2.5, 4.6, 21.3), the straw's ride on the tooth it hides (frames
+    0-11 of the front view) flagged before the release, and the tracks keyed on the
+    engine: the rules tracker's tracks of the same run are not reused."""
     import json
 
     from conftest import assert_k_within
@@ -279,6 +280,13 @@ def test_run42_fitted_with_the_flight_tracker(tmp_path, vidtrack_cli):
         # (a flag set after tracking, where the views are merged, has no tracker reason)
         assert not ((rows["flags"] == 0) & (rows["reason"] != "")).any()
     assert (table["reason"] != "").any()
+    # the ride: every frame before the rendered release is pre-release, none after it
+    front = table[table["view"] == "front"]
+    released = json.loads(
+        (run / "truth.json").read_text())["views"]["front"]["release_frame"]
+    ride = front["reason"].str.contains("pre-release").to_numpy()
+    frames = front["frame"].to_numpy()
+    assert ride[frames < released].all() and not ride[frames > released].any()
     # the same folder with the rules tracker: tracked again, not the flight's tracks reused
     scene = run / "scene.toml"
     scene.write_text(scene.read_text().replace('engine = "flight"', 'engine = "rules"'))
