@@ -369,8 +369,6 @@ _XFAIL = {}
 #: ... and those the flight tracker (``[track] engine = "flight"``) does not yet pass, with
 #: what was measured (vidtrack bench track --real gives every row).
 _FLIGHT_XFAIL = {
-    "rider_riding": "top view: 131 of 372 frames kept (the rider beside the straw makes "
-                    "most frames 'touched'); the front view's are within 0.1 px",
     "rider_crossing": "front view: frame 193 nearer the rider than the straw",
     "dark_highlight": "front view: frames 2-11 on the blade up to 1.9 px off, unflagged "
                       "(the release not found on a straw of two polarities)",

@@ -53,6 +53,9 @@ SAME_PX = 1.0
 #: chain's.
 LEVEL_RATIO = 1.5
 
+#: A chain's flight is looked for from at most this many seeds along it.
+SEEDS_MAX = 16
+
 
 class Chain:
     """A chain: ``pick[i]`` is the index of its detection in frame position ``i`` (-1:
@@ -189,13 +192,18 @@ def _cubic(t, y, ok, lo, hi, gap_frames):
 
 
 def flight_segment(t, y, ok, settings, size):
-    """The longest span of time round the middle of the ``ok`` points that one cubic in
-    time explains (free flight with drag: gravity, a drag that changes smoothly) within
-    ``flight_model_px + flight_residual_sizes * size`` (90th percentile).
+    """The span of time, of the ``ok`` points, whose path one cubic in time explains
+    (free flight with drag: gravity, a drag that changes smoothly) within
+    ``flight_model_px + flight_residual_sizes * size`` (90th percentile) and that goes
+    furthest.
 
-    Grown from the middle of the ``ok`` points, both ways at once while the cubic holds,
-    then each way alone. A circle (a blade going round) or a path that turns back on
-    itself (a hand) is explained only in part.
+    Each span is grown from a seed (the ``ok`` points round it, ``2 * path_window``
+    frames either side), both ways at once while the cubic holds, then each way alone;
+    the seeds lie every ``2 * path_window`` frames along the ``ok`` points (at most
+    :data:`SEEDS_MAX`, evenly spread), so a chain that went on after its flight (a bounce,
+    a roll, something else taken after the object left) still has its flight found. A
+    circle (a blade going round) or a path that turns back on itself (a hand) is
+    explained only in part.
 
     Returns
     -------
@@ -207,17 +215,37 @@ def flight_segment(t, y, ok, settings, size):
     if idx.size < 6:
         return ok & False, 0.0
     tol = settings.flight_model_px + settings.flight_residual_sizes * size
-    mid = float(t[idx[idx.size // 2]])
     t0, t1 = float(t[idx[0]]), float(t[idx[-1]])
-    lo, hi = max(mid - 2 * settings.path_window, t0), min(mid + 2 * settings.path_window, t1)
-    res, length = _cubic(t, y, ok, lo, hi, settings.max_gap + 1)
-    if res > tol:
+    half = 2 * settings.path_window
+    mids = np.arange(t0 + half, t1 - half + 1e-9, 2 * half)
+    if mids.size == 0:
+        mids = np.array([float(t[idx[idx.size // 2]])])
+    elif mids.size > SEEDS_MAX:
+        mids = mids[np.linspace(0, mids.size - 1, SEEDS_MAX).round().astype(int)]
+    best = (0.0, None)
+    for mid in mids:
+        span = _grow_span(t, y, ok, float(mid), t0, t1, tol, settings)
+        if span is not None and span[2] > best[0]:
+            best = (span[2], span)
+    if best[1] is None:
         return ok & False, 0.0
+    lo, hi, length = best[1]
+    return ok & (t >= lo) & (t <= hi), length
+
+
+def _grow_span(t, y, ok, mid, t0, t1, tol, settings):
+    """(lo, hi, path length) of the span grown from ``mid``, or None where the cubic
+    does not hold even round it."""
+    gap = settings.max_gap + 1
+    lo, hi = max(mid - 2 * settings.path_window, t0), min(mid + 2 * settings.path_window, t1)
+    res, length = _cubic(t, y, ok, lo, hi, gap)
+    if res > tol or length <= 0.0:
+        return None
     step = 1.4
     while lo > t0 or hi < t1:
         w = max(mid - lo, hi - mid, 1.0) * step
         nlo, nhi = max(mid - w, t0), min(mid + w, t1)
-        r, n_len = _cubic(t, y, ok, nlo, nhi, settings.max_gap + 1)
+        r, n_len = _cubic(t, y, ok, nlo, nhi, gap)
         if r > tol:
             break
         lo, hi, length = nlo, nhi, n_len
@@ -225,11 +253,11 @@ def flight_segment(t, y, ok, settings, size):
         while (lo > t0) if side < 0 else (hi < t1):
             w = max((hi - lo) * (step - 1.0), 1.0)
             nlo, nhi = (max(lo - w, t0), hi) if side < 0 else (lo, min(hi + w, t1))
-            r, n_len = _cubic(t, y, ok, nlo, nhi, settings.max_gap + 1)
+            r, n_len = _cubic(t, y, ok, nlo, nhi, gap)
             if r > tol:
                 break
             lo, hi, length = nlo, nhi, n_len
-    return ok & (t >= lo) & (t <= hi), length
+    return lo, hi, length
 
 
 def _score(chain, settings, detections):

@@ -14,8 +14,18 @@ Each detection is measured where it is found, in the one pass over the footage:
   polarity; an object of both (a highlight on a dark ball) weighs each pixel by its
   difference from the background clipped at the detection's contrast (the 90th
   percentile of its differences);
-- its **photometric shadow test**: a shadow dims the background by a smooth factor and
-  keeps its texture; an object hides it. A detection is shadow-like when all its pixels
+- the **photometric shadow test**, per pixel first: a shadow (or a dimming of the light)
+  dims the background by a smooth factor and keeps its texture; an object hides it. A
+  pixel darker than the background is a shadow's, and no foreground, where the
+  background has texture round it (its standard deviation over the
+  ``SHADOW_WINDOW_PX`` square at least ``TEXTURE_SIGMAS`` noises), the frame there is
+  no darker than ``shadow_ratio_min`` times the background (means over the square), and
+  the frame's texture there correlates with the background's at least
+  ``shadow_texture_min`` (Pearson r over the square): an object touching its own shadow
+  is detected alone, and its pixels beside the shadow are read against the background
+  as the shadow dims it there (the mean dimming of the shadow's pixels in the square).
+  Where the background is plain, a pixel cannot tell a shadow from a
+  dark object; then the whole detection is judged: it is shadow-like when all its pixels
   are darker than the background by a factor no smaller than ``shadow_ratio_min``
   (frame / background, 10th percentile), and, where the background has texture there,
   the frame's texture still correlates with it (Pearson r of the two over the
@@ -65,6 +75,79 @@ TEXTURE_SIGMAS = 3.0
 #: An object whose pixels of the other polarity (beyond ``k_grow``) hold at most this
 #: share of its summed contrast has one grey level (a highlight holds more).
 ONE_LEVEL_SHARE = 0.05
+
+#: The per-pixel shadow test looks at the square of this side round each pixel (px).
+SHADOW_WINDOW_PX = 5
+
+
+class ShadowTest:
+    """The per-pixel photometric shadow test against one background.
+
+    Parameters
+    ----------
+    background : numpy.ndarray
+        The background image (float32).
+    noise : float
+        A static pixel's noise (grey levels).
+    ratio_min, texture_min : float
+        ``shadow_ratio_min`` and ``shadow_texture_min``.
+    """
+
+    def __init__(self, background, noise, ratio_min, texture_min):
+        self.bg = np.ascontiguousarray(background, dtype=np.float32)
+        self.ratio_min, self.texture_min = float(ratio_min), float(texture_min)
+        self.noise = max(float(noise), 0.5)
+        self.mean_b, self.var_b = _box_stats(self.bg)
+        self.textured = self.var_b >= (TEXTURE_SIGMAS * self.noise) ** 2
+
+    def __call__(self, f, candidates, window=None):
+        """The shadow's pixels among ``candidates`` of grey frame ``f`` (float32; a crop
+        ``window = (r0, r1, c0, c1)`` of the background's frame), and the light there.
+
+        Returns
+        -------
+        (numpy.ndarray of bool, numpy.ndarray or None)
+            Which candidates are a shadow's, and the factor by which the shadow dims the
+            background at each pixel (the mean frame / background ratio of the shadow's
+            pixels in the square round it; 1 where there are none): an object's pixels
+            beside its shadow are read against the background as the shadow dims it.
+            None where no pixel is a shadow's.
+        """
+        sl = np.s_[:, :] if window is None else np.s_[window[0]:window[1], window[2]:window[3]]
+        textured = self.textured[sl]
+        cand = candidates & textured
+        if not cand.any():
+            return cand, None
+        b = self.bg[sl]
+        if window is None:
+            mean_b, var_b = self.mean_b, self.var_b
+        else:
+            mean_b, var_b = _box_stats(b)
+        box = (SHADOW_WINDOW_PX, SHADOW_WINDOW_PX)
+        mean_f = cv2.boxFilter(f, -1, box)
+        cov = cv2.boxFilter(f * b, -1, box) - mean_f * mean_b
+        var_f = np.maximum(cv2.boxFilter(f * f, -1, box) - mean_f * mean_f, 0.0)
+        ratio = mean_f / np.maximum(mean_b, 1.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r = cov / np.sqrt(var_f * var_b)
+        shade = cand & (ratio >= self.ratio_min) & (ratio < 1.0) & (r >= self.texture_min)
+        if not shade.any():
+            return shade, None
+        own = shade.astype(np.float32)
+        dim = np.where(shade, f / np.maximum(b, 1.0), 0.0).astype(np.float32)
+        count = cv2.boxFilter(own, -1, box, normalize=False)
+        near = count > 0
+        light = np.ones_like(f)
+        light[near] = cv2.boxFilter(dim, -1, box, normalize=False)[near] / count[near]
+        return shade, light
+
+
+def _box_stats(img):
+    """Mean and variance of ``img`` over the ``SHADOW_WINDOW_PX`` square round each
+    pixel."""
+    box = (SHADOW_WINDOW_PX, SHADOW_WINDOW_PX)
+    mean = cv2.boxFilter(img, -1, box)
+    return mean, np.maximum(cv2.boxFilter(img * img, -1, box) - mean * mean, 0.0)
 
 
 def _percentile_by_label(values, labels, n, q):
@@ -135,6 +218,8 @@ class Detector:
         self.grow_level = (sigma * np.float32(settings.k_grow)).astype(np.float32)
         self.noise = float(background.noise_sigma)
         self.rows, self.cols = self.bg.shape
+        self.shadow_test = ShadowTest(self.bg, self.noise, settings.shadow_ratio_min,
+                                      settings.shadow_texture_min)
 
     def __call__(self, frame):
         """The detections of one grey frame (a :data:`DETECTION_DTYPE` array)."""
@@ -143,6 +228,10 @@ class Detector:
         diff = cv2.subtract(f, self.bg)
         absd = np.abs(diff)
         grow = cv2.compare(absd, self.grow_level, cv2.CMP_GT)
+        # (a shadow's pixels, where the background's texture tells them, are no one's)
+        shade, light = self.shadow_test(f, (grow > 0) & (diff < 0))
+        if light is not None:
+            grow[shade] = 0
         n, lab, stats, _ = cv2.connectedComponentsWithStats(grow, connectivity=8,
                                                             ltype=cv2.CV_32S)
         if n <= 1:
@@ -168,10 +257,14 @@ class Detector:
         li = grown[ys, xs].astype(np.int64) - 1
         m = keep.size
         d = diff[ys, xs].astype(np.float64)
+        bgv = self.bg[ys, xs].astype(np.float64)
+        if light is not None:
+            # (read against the background as the shadow dims it)
+            bgv = bgv * light[ys, xs]
+            d = f[ys, xs] - bgv
         a = np.abs(d)
         level = _percentile_by_label(a, li, m, 0.9)
         fv = f[ys, xs].astype(np.float64)
-        bgv = self.bg[ys, xs].astype(np.float64)
         sign = np.where(np.bincount(li, d, m) >= 0, 1.0, -1.0)
         # (an object of two polarities, a highlight on a dark ball, has no one level;
         # compression's ringing round a bright straw is a few grey levels of the other
@@ -187,6 +280,9 @@ class Detector:
         obj = sign * _percentile_by_label(sign[li] * fv, li, m, 0.9)
         obj = np.where(one_level, obj, np.nan)
         w = pixel_weights(d, bgv, self.sigma[ys, xs], level[li], obj[li])
+        if light is not None:
+            # (the ring grown round a detection weighs no shadow's pixel)
+            w = np.where(shade[ys, xs], 0.0, w)
         xf, yf = xs.astype(np.float64), ys.astype(np.float64)
         sw = np.bincount(li, w, m)
         good = sw > 0

@@ -9,15 +9,18 @@ Against the chain's own clean frames, two tests with one threshold, ``k_flag``:
   times their scatter (per axis: their median over 1.1774, as for a 2-D normal law;
   and beyond ``flag_floor_px``): OUTLIER;
 - **appearance** (first: the path test starts from the frames that pass it): the log of
-  each frame's size (pixels) and of its spreads along its major and minor axes (a
-  part touching it far out, a blade, stretches them) against the median of its
-  neighbours' within twice ``path_window`` frames; the log of its weight measured by
+  each frame's detected size (pixels: what joins the object grows it) against the
+  median of its neighbours' within twice ``path_window`` frames; the log of its weight measured by
   its shape's fit (its coverage) short of its neighbours' within four times
   ``path_window`` (scatter at least ``weight_floor``: part of it hidden); and the share
   of its weight that the fit left out (:mod:`vidtrack.track.measure`) against the
   chain's, over its robust scatter (at least ``size_floor``): beyond ``k_flag``
   (grown or shrunk at a stroke: something touching, part hidden), APPEARANCE; so is a
-  shadow-like detection (:mod:`vidtrack.track.detect`) in a chain that is not one.
+  shadow-like detection (:mod:`vidtrack.track.detect`) in a chain that is not one. A
+  rod's frames measured by its bar (:mod:`vidtrack.track.rod`) are judged by the bar
+  instead: its length and width for the size, its covered area for the
+  weight, its misfit over its footprint for the residual. Something beside the rod,
+  even joined to its detection, does not touch the bar; something over it does.
 
 A detection touching the frame's border is BORDER; frames inside the chain's span
 without a detection are LOST.
@@ -26,10 +29,10 @@ The **release** (front views): where the path's acceleration drops at a stroke, 
 ride on a blade or in a hand to free flight (:func:`vidtrack.track.release.find_release`:
 a spline knot fitted robustly to the chain's first ``release_window`` frames on its
 path, counted when it is significant (``release_significance``), the acceleration before
-it at least ``release_ratio`` times that after, and something touched the object
-within ``release_touch_frames`` before it or the extra acceleration before it pushed
-the object rather than braked it (``release_push_deg``)); the frames before it are
-PRE_RELEASE.
+it at least ``release_ratio`` times that after, and the extra acceleration before it
+pushed or turned the object rather than braked it (``release_push_deg``: a blade or a
+hand pushes what it carries; drag falling off, touched or not, brakes)); the frames
+before it are PRE_RELEASE.
 """
 
 import warnings
@@ -111,9 +114,45 @@ def _size_z(size, settings, window, floor=None):
     return dev / robust_scale(dev, floor=settings.size_floor if floor is None else floor)
 
 
+def _appearance(size_measures, residual, weight, settings):
+    """(touched, hidden) of a run of frames from their size measures (each grown or
+    shrunk at a stroke against its neighbours'), their residual (beyond the run's own)
+    and their measured weight (short of their neighbours')."""
+    m = size_measures[0].size
+    touched = np.zeros(m, bool)
+    hidden = np.zeros(m, bool)
+    if m == 0:
+        return touched, hidden
+    if residual is not None:
+        touched |= residual_outliers(residual, settings)
+    if weight is not None:
+        hidden |= _size_z(np.maximum(weight, 1e-3), settings, 4 * settings.path_window,
+                          floor=settings.weight_floor) < -settings.k_flag
+    for measure in size_measures:
+        z = _size_z(np.maximum(measure, 0.3), settings, 2 * settings.path_window)
+        touched |= z > settings.k_flag
+        hidden |= z < -settings.k_flag
+    return touched, hidden
+
+
 def judge(chain, detections, n, settings, *, find_release=True, residual=None,
-          weight=None):
+          weight=None, bar=None):
     """Flags, reasons and the release of a chosen chain.
+
+    Parameters
+    ----------
+    chain : vidtrack.track.choose.Chain
+    detections : list of numpy.ndarray
+    n : int
+        Frames.
+    settings : vidtrack.track.settings.TrackerSettings
+    find_release : bool
+    residual, weight : numpy.ndarray, optional
+        Per frame, the measurement's residual share and weight
+        (:func:`vidtrack.track.measure.measure_frame`).
+    bar : numpy.ndarray, optional
+        ``(n, 4)``: per frame, the rod's bar (half length, half width, coverage,
+        misfit), NaN where it was not measured by one.
 
     Returns
     -------
@@ -141,18 +180,20 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     uv = np.column_stack([chain.u[idx], chain.v[idx]])
     release = None
     # something touching the object (its detection grown, weight left outside its
-    # kernel), part of it hidden (its measured weight short of its neighbours')
-    touched = np.zeros(idx.size, bool)
-    hidden = np.zeros(idx.size, bool)
-    if residual is not None:
-        touched |= residual_outliers(residual[idx], settings)
-    if weight is not None:
-        hidden |= _size_z(np.maximum(weight[idx], 1e-3), settings, 4 * settings.path_window,
-                          floor=settings.weight_floor) < -settings.k_flag
-    for measure in (chain.size, chain.major, chain.minor):
-        z = _size_z(np.maximum(measure[idx], 0.3), settings, 2 * settings.path_window)
-        touched |= z > settings.k_flag
-        hidden |= z < -settings.k_flag
+    # kernel), part of it hidden (its measured weight short of its neighbours'), over
+    # the whole chain; a rod's frames measured by its bar are judged by the bar instead
+    # (its length, width, coverage and misfit over its footprint: what lies beside it,
+    # even joined to its detection, does not count), the frames without one (end on,
+    # the fit run off) keep the detection's verdict
+    touched, hidden = _appearance((chain.size[idx],),
+                                  None if residual is None else residual[idx],
+                                  None if weight is None else weight[idx], settings)
+    barred = (np.isfinite(bar[idx]).all(axis=1) if bar is not None
+              else np.zeros(idx.size, bool))
+    if barred.any():
+        h, w, a, misfit = bar[idx[barred]].T
+        touched[barred], hidden[barred] = _appearance((2.0 * h, 2.0 * w), misfit,
+                                                      4.0 * a * h * w, settings)
     grown = touched | hidden
     flags[idx[grown]] |= APPEARANCE
     off, scatter = _path_outliers(idx, uv, settings, ~grown)
@@ -167,8 +208,7 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
         pos, _tau, note = release_knot(
             idx.astype(float), uv, ~off, first_in_open=not touched[0],
             window=settings.release_window, significance=settings.release_significance,
-            min_ratio=settings.release_ratio, attached=touched,
-            attached_within=float(settings.release_touch_frames),
+            min_ratio=settings.release_ratio,
             pushed_cos=float(np.cos(np.radians(settings.release_push_deg))))
         if pos is not None and pos > 0:
             release = int(idx[pos])

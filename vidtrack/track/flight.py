@@ -102,26 +102,31 @@ def _held_background(held, samples):
 def _measure(source, held, detector, detections, chain, settings, cancel):
     """Each chain frame measured by the object's shape (:mod:`vidtrack.track.measure`):
     the chain's positions are replaced; returns per frame position (weight, muu, mvv,
-    muv) and the residual share (NaN where the chain has no detection). Footage not held
+    muv), the residual share and, for a rod, its bar (half length, half width, coverage,
+    misfit) (NaN where the chain has no detection or no bar). Footage not held
     is decoded again for it, one frame at a time."""
     n = len(detections)
     shape = chain_shape(chain)
     moments = np.full((n, 4), np.nan)
     residual = np.full(n, np.nan)
+    bars = np.full((n, 4), np.nan)
     wanted = set(int(i) for i in chain.frames)
     frames = held if held is not None else _frames(source, cancel)
     for i, frame in enumerate(frames):
         if i not in wanted:
             continue
         det = detections[i][chain.pick[i]]
-        cu, cv, w, muu, mvv, muv, res = measure_frame(frame, detector.bg, detector.sigma,
-                                                      det, shape, settings)
+        cu, cv, w, muu, mvv, muv, res, bar = measure_frame(
+            frame, detector.bg, detector.sigma, det, shape, settings,
+            shadow_test=detector.shadow_test)
         chain.u[i], chain.v[i] = cu, cv
         moments[i] = (w, muu, mvv, muv)
         residual[i] = res
+        if bar is not None:
+            bars[i] = bar
         if i >= chain.frames[-1]:
             break
-    return moments, residual
+    return moments, residual, bars
 
 
 def _blade_mask(blade_region, shape):
@@ -191,11 +196,12 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
                                frame_numbers=fnums, what=what)
     except TrackError as err:
         raise TrackError(f"{name}: {err}") from None
-    moments, residual = _measure(source, held, detector, detections, chain, settings, cancel)
+    moments, residual, bars = _measure(source, held, detector, detections, chain, settings,
+                                       cancel)
     del held
     flags, release, scatter, notes, reasons = judge(chain, detections, n, settings,
                                            find_release=view != "top", residual=residual,
-                                           weight=moments[:, 0])
+                                           weight=moments[:, 0], bar=bars)
     u, v = chain.u.copy(), chain.v.copy()
     area = np.full(n, np.nan)
     angle = np.full(n, np.nan)

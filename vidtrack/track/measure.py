@@ -58,12 +58,16 @@ class Shape:
 
 
 def chain_shape(chain):
-    """The :class:`Shape` of a chain's detections (robust medians)."""
-    idx = chain.frames
+    """The :class:`Shape` of a chain's detections (robust medians) over the frames its
+    flight explains (all its frames where none is marked): what the chain took before
+    or after the flight (a bounce, the object's shadow joined to it) does not size it."""
+    idx = np.flatnonzero(chain.explained)
+    if idx.size == 0:
+        idx = chain.frames
     return Shape(np.nanmedian(chain.major[idx]), np.nanmedian(chain.minor[idx]))
 
 
-def measure_frame(frame, background, sigma, det, shape, settings):
+def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=None):
     """The object's point in one frame, by its shape's fit.
 
     Parameters
@@ -77,12 +81,16 @@ def measure_frame(frame, background, sigma, det, shape, settings):
     shape : Shape
     settings : vidtrack.track.settings.TrackerSettings
         ``kernel_sigmas``, ``k_grow``.
+    shadow_test : vidtrack.track.detect.ShadowTest, optional
+        Given, the pixels it takes for a shadow's are none of the object's.
 
     Returns
     -------
-    (u, v, weight, muu, mvv, muv, residual)
+    (u, v, weight, muu, mvv, muv, residual, bar)
         The centroid (px), the weight inside the kernel, its second central moments
-        (px^2) and the residual share.
+        (px^2), the residual share, and for a rod measured by its bar, the bar's
+        ``(half length, half width, coverage, misfit)`` (px, px, 1, 1; see
+        :func:`vidtrack.track.rod.fit_rod`), else None.
     """
     k = settings.kernel_sigmas
     # the kernel's spreads: the shape's, the minor one at least a pixel (blur, sampling)
@@ -99,6 +107,17 @@ def measure_frame(frame, background, sigma, det, shape, settings):
     sg = sigma[r0:r1, c0:c1].astype(np.float64)
     d = f - bg
     fg = (np.abs(d) > settings.k_grow * sg).astype(np.uint8)
+    shade = None
+    if shadow_test is not None:
+        shade, light = shadow_test(f.astype(np.float32), (fg > 0) & (d < 0),
+                                   window=(r0, r1, c0, c1))
+        if light is None:
+            shade = None
+        else:
+            # (the object read against the background as its shadow dims it)
+            fg[shade] = 0
+            bg = bg * light
+            d = f - bg
     # the detection's own connected pixels (another object's, apart from it, are not
     # the object's even where they lie within its kernel), with the pixels beside them:
     # the object's faint edge
@@ -111,9 +130,11 @@ def measure_frame(frame, background, sigma, det, shape, settings):
         fg = (lab == int(np.argmax(counts))).astype(np.uint8) if counts.any() else fg
     ys, xs = np.nonzero(cv2.dilate(fg, _KERNEL3))
     if ys.size == 0:
-        return cu, cv, 0.0, np.nan, np.nan, np.nan, np.nan
+        return cu, cv, 0.0, np.nan, np.nan, np.nan, np.nan, None
     level = float(det["level"]) if np.isfinite(det["level"]) and det["level"] > 0 else 1.0
     w = pixel_weights(d[ys, xs], bg[ys, xs], sg[ys, xs], level, float(det["obj_level"]))
+    if shade is not None:
+        w = np.where(shade[ys, xs], 0.0, w)
     x = xs + c0 + 0.0
     y = ys + r0 + 0.0
     muu, mvv, muv = float(det["muu"]), float(det["mvv"]), float(det["muv"])
@@ -143,13 +164,14 @@ def measure_frame(frame, background, sigma, det, shape, settings):
     wi = w * inside
     sw = float(wi.sum())
     if sw <= 0:
-        return float(det["u"]), float(det["v"]), 0.0, np.nan, np.nan, np.nan, np.nan
+        return float(det["u"]), float(det["v"]), 0.0, np.nan, np.nan, np.nan, np.nan, None
     eu, ev = x - cu, y - cv
     c, s = np.cos(theta), np.sin(theta)
     m2 = ((eu * c + ev * s) / a) ** 2 + ((-eu * s + ev * c) / b) ** 2
     near = m2 <= (NEAR_KERNELS * k) ** 2
     out = float(np.sum(w * (near & ~inside)))
     residual = out / (out + sw)
+    bar = None
     if shape.major > ROD_ASPECT * shape.minor and np.isfinite(det["obj_level"]):
         # a rod: its centre from the bar fitted to the pixels in its kernel (another
         # object's apart from it left out), robustly, the mean shift's where the fit
@@ -157,13 +179,14 @@ def measure_frame(frame, background, sigma, det, shape, settings):
         rod = _rod_centre(d, bg, sg, det, fg, n_lab, lab, (r0, c0), (cu, cv, theta),
                           (a, b), shape, k, settings)
         if rod is not None:
-            cu, cv, fitted = rod
+            cu, cv, fitted, misfit = rod
             shape.profile = fitted[4:]
+            bar = (float(fitted[3]), float(fitted[4]), float(fitted[5]), misfit)
     eu, ev = x - cu, y - cv
     muu = float(np.sum(wi * eu * eu) / sw)
     mvv = float(np.sum(wi * ev * ev) / sw)
     muv = float(np.sum(wi * eu * ev) / sw)
-    return cu, cv, sw, muu, mvv, muv, residual
+    return cu, cv, sw, muu, mvv, muv, residual, bar
 
 
 def _rod_centre(d, bg, sg, det, fg, n_lab, lab, origin, pose, spreads, shape, k,

@@ -126,13 +126,14 @@ def find_release(tau, pos, usable_mask, *, first_in_open, window=80, min_before=
         frames before it: an object flying free before the knot was not released there
         (a light object's drag falls off as it slows down, which a knot can mimic).
     pushed_cos : float, optional
-        Given, a knot with no touch beside it counts all the same when the ride's extra
-        acceleration (before the knot, less the free flight's) points along the
-        velocity at the knot at least this much (the cosine of the angle between them):
-        a blade or a hand pushes what it carries (or turns it, centripetally: cosine
-        near 0), while drag falling off as a light object slows down leaves an extra
-        braking before the knot, against the velocity (cosine near -1). A straw riding
-        a blade that it hides from the camera touches nothing visible.
+        Given, a knot counts only when the ride's extra acceleration (before the knot,
+        less the free flight's) points along the velocity at the knot at least this
+        much (the cosine of the angle between them), and ``attached`` is not asked: a
+        blade or a hand pushes what it carries (or turns it, centripetally: cosine near
+        0), while drag falling off as a light object slows down, or a shuttlecock's
+        strong drag after a racket's hit, leaves an extra braking before the knot
+        (cosine near -1), touched or not. A straw riding a blade that it hides from the
+        camera touches nothing visible.
 
     Returns
     -------
@@ -183,11 +184,12 @@ def find_release(tau, pos, usable_mask, *, first_in_open, window=80, min_before=
     if a_ride < min_ratio * a_free:
         return _first_seen(idx, first_in_open, weak=(a_ride, a_free))
     t_rel = tau[idx[0]] + tk
-    if attached is not None:
+    if pushed_cos is not None:
+        if _push_cosine(coef, tks, scale) < pushed_cos:
+            return _first_seen(idx, first_in_open, free=(a_ride, a_free))
+    elif attached is not None:
         near = (tau >= t_rel - attached_within) & (tau <= t_rel + 1.0)
-        touched = bool(np.any(np.asarray(attached, bool) & near))
-        if not touched and not (pushed_cos is not None
-                                and _push_cosine(coef, tks, scale) >= pushed_cos):
+        if not np.any(np.asarray(attached, bool) & near):
             return _first_seen(idx, first_in_open, free=(a_ride, a_free))
     after = np.flatnonzero(tau >= t_rel - 0.2)
     return (int(after[0]), float(t_rel),
@@ -209,7 +211,7 @@ def _first_seen(idx, first_in_open, weak=None, free=None):
         return int(idx[0]), None, "the object was first seen in free flight"
     if free is not None:
         why = (f"the acceleration drops from {free[0]:.3g} to {free[1]:.3g} px/frame^2 "
-               "while the object touches nothing (drag, not a release)")
+               "while nothing pushes or touches the object (drag, not a release)")
     else:
         why = ("no jump of the acceleration was found" if weak is None else
                f"the acceleration changes only from {weak[0]:.3g} to {weak[1]:.3g} "

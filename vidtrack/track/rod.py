@@ -133,8 +133,12 @@ def fit_rod(x, y, cover, start, profile=None):
 
     Returns
     -------
-    (float, float, numpy.ndarray) or None
-        The centre (u, v) and the fitted parameters (u, v, theta, h, w, a, s, s2).
+    (float, float, numpy.ndarray, float) or None
+        The centre (u, v), the fitted parameters (u, v, theta, h, w, a, s, s2) and the
+        misfit: the RMS residual over the bar's footprint (the pixels it covers at least
+        half as much as its coverage ``a``) over ``a``, small for the rod alone, large
+        where something overlaps it (beside it, outside the footprint, it does not
+        count).
     """
     from scipy.optimize import least_squares
 
@@ -161,4 +165,8 @@ def fit_rod(x, y, cover, start, profile=None):
     u, v = float(res.x[0]), float(res.x[1])
     if math.hypot(u - u0, v - v0) > MAX_SHIFT * h0:
         return None
-    return u, v, res.x
+    resid = cached.residual(res.x)
+    foot = (resid + cover) >= 0.5 * res.x[5]
+    misfit = (float(np.sqrt(np.mean(resid[foot] ** 2))) / res.x[5] if foot.any()
+              else float("nan"))
+    return u, v, res.x, misfit

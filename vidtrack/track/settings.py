@@ -48,9 +48,12 @@ class TrackerSettings:
         percentile), is shadow-like: a shadow dims the background, an object of its
         own grey level hides it. 0.5 takes a dimming to half as a shadow.
     shadow_texture_min : float
-        Where the background has texture (its standard deviation over the detection at
-        least 3 times the noise), the detection is shadow-like only when the frame's
-        texture correlates with the background's at least this much (Pearson r).
+        Where the background has texture (its standard deviation over the detection, or
+        over the 5 x 5 px square round a pixel, at least 3 times the noise), the
+        detection, or the pixel, is a shadow's only when the frame's texture there
+        correlates with the background's at least this much (Pearson r); the pixel's
+        square, dimmed on average by no more than ``shadow_ratio_min``, is then no
+        foreground.
     gate_px : float
         Linking: smallest gate round a tracklet's predicted position (px).
     gate_sizes : float
@@ -122,16 +125,13 @@ class TrackerSettings:
         ... and when the acceleration just before it is at least this many times that of
         the flight after it (the ride on a blade or in a hand is the strongly
         accelerated part; dimensionless).
-    release_touch_frames : int
-        ... and when a frame where something touched the object (its appearance flagged)
-        lies within this many frames before it: an object flying free before the knot
-        was not released there (frames);
     release_push_deg : float
-        ... or when, nothing seen touching it, the ride's extra acceleration lies within
-        this angle of the velocity at the knot (degrees, at most 180): a blade or a hand
-        pushes (near 0) or turns (near 90) what it carries (a straw on a blade hides the
-        blade under it), while drag falling off as a light object slows down leaves a
-        braking before the knot (near 180).
+        ... and when the ride's extra acceleration lies within this angle of the
+        velocity at the knot (degrees, at most 180): a blade or a hand pushes (near 0)
+        or turns (near 90) what it carries, seen touching it or not (a straw on a blade
+        hides the blade under it), while drag falling off as a light object slows down,
+        or a shuttlecock's after a racket's hit, leaves a braking before the knot (near
+        180).
     """
 
     k_sigma: float = 5.0
@@ -163,7 +163,6 @@ class TrackerSettings:
     release_window: int = 80
     release_significance: float = 25.0
     release_ratio: float = 2.0
-    release_touch_frames: int = 10
     release_push_deg: float = 120.0
 
     def __post_init__(self):
