@@ -19,7 +19,9 @@ Against the chain's own clean frames, two tests with one threshold, ``k_flag``:
   shadow-like detection (:mod:`vidtrack.track.detect`) in a chain that is not one. A
   rod's frames measured by its bar (:mod:`vidtrack.track.rod`) are judged by the bar
   instead: its length and width for the size, its covered area for the
-  weight, its misfit over its footprint for the residual. Something beside the rod,
+  weight, each against the local quadratic in time through its neighbours' (a rod
+  turning end on shrinks smoothly: it is followed, where a median of the neighbours
+  lags it), its misfit over its footprint for the residual. Something beside the rod,
   even joined to its detection, does not touch the bar; something over it does.
 
 A detection touching the frame's border is BORDER; frames inside the chain's span
@@ -104,20 +106,26 @@ def _neighbour_median(x, window):
     return np.where(np.isfinite(med), med, x) if n else med
 
 
-def _size_z(size, settings, window, floor=None):
-    """Each frame's log size less its neighbours' median within ``window`` frames, in
-    robust scatters of those differences (at least ``floor``, default ``size_floor``):
-    beyond ``k_flag``, grown at a stroke (something touching); below ``-k_flag``, shrunk
-    (part hidden)."""
+def _size_z(size, settings, window, floor=None, frames=None):
+    """Each frame's log size less its neighbours' median within ``window`` frames (or,
+    given the ``frames``, less the local quadratic in time through them: a size that
+    changes smoothly, a rod turning end on, is followed), in robust scatters of those
+    differences (at least ``floor``, default ``size_floor``): beyond ``k_flag``, grown at
+    a stroke (something touching); below ``-k_flag``, shrunk (part hidden)."""
     logs = np.log(np.maximum(size, 1e-9))
-    dev = logs - _neighbour_median(logs, window)
+    if frames is None:
+        dev = logs - _neighbour_median(logs, window)
+    else:
+        pred, _ = local_quadratic(np.asarray(frames, float), logs, window)
+        dev = np.where(np.isfinite(pred), logs - pred, 0.0)
     return dev / robust_scale(dev, floor=settings.size_floor if floor is None else floor)
 
 
-def _appearance(size_measures, residual, weight, settings):
+def _appearance(size_measures, residual, weight, settings, frames=None):
     """(touched, hidden) of a run of frames from their size measures (each grown or
-    shrunk at a stroke against its neighbours'), their residual (beyond the run's own)
-    and their measured weight (short of their neighbours')."""
+    shrunk at a stroke against its neighbours', or against their local quadratic in
+    time given the ``frames``), their residual (beyond the run's own) and their measured
+    weight (short of their neighbours')."""
     m = size_measures[0].size
     touched = np.zeros(m, bool)
     hidden = np.zeros(m, bool)
@@ -127,9 +135,10 @@ def _appearance(size_measures, residual, weight, settings):
         touched |= residual_outliers(residual, settings)
     if weight is not None:
         hidden |= _size_z(np.maximum(weight, 1e-3), settings, 4 * settings.path_window,
-                          floor=settings.weight_floor) < -settings.k_flag
+                          floor=settings.weight_floor, frames=frames) < -settings.k_flag
     for measure in size_measures:
-        z = _size_z(np.maximum(measure, 0.3), settings, 2 * settings.path_window)
+        z = _size_z(np.maximum(measure, 0.3), settings, 2 * settings.path_window,
+                    frames=frames)
         touched |= z > settings.k_flag
         hidden |= z < -settings.k_flag
     return touched, hidden
@@ -193,7 +202,8 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     if barred.any():
         h, w, a, misfit = bar[idx[barred]].T
         touched[barred], hidden[barred] = _appearance((2.0 * h, 2.0 * w), misfit,
-                                                      4.0 * a * h * w, settings)
+                                                      4.0 * a * h * w, settings,
+                                                      frames=idx[barred])
     grown = touched | hidden
     flags[idx[grown]] |= APPEARANCE
     off, scatter = _path_outliers(idx, uv, settings, ~grown)
