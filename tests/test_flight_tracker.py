@@ -294,8 +294,8 @@ def test_scene_track_table_is_checked(tmp_path, vidtrack_cli):
 
 def test_run42_fitted_with_the_flight_tracker(tmp_path, vidtrack_cli):
     """The sample run with ``[track] engine = "flight"``: the fit's k1..k4 within the
-    suite's tolerances of the truth it was rendered from (measured: 2.201, 2.500, 4.596,
-    21.33 against 2.2, 2.5, 4.6, 21.3), the straw's ride on the tooth it hides (frames
+    suite's tolerances of the truth it was rendered from (measured: 2.201, 2.500, 4.597,
+    21.32 against 2.2, 2.5, 4.6, 21.3), the straw's ride on the tooth it hides (frames
     0-11 of the front view) flagged before the release, and the tracks keyed on the
     engine: the rules tracker's tracks of the same run are not reused."""
     import json
