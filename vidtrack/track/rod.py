@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-__all__ = ["fit_rod", "F_SCALE", "MIN_LENGTH_PX"]
+__all__ = ["fit_rod", "F_SCALE", "MIN_LENGTH_PX", "FOOTPRINT_SHARE"]
 
 #: Soft-l1 scale of the residuals, in coverage.
 F_SCALE = 0.1
@@ -37,6 +37,11 @@ _WIDTH = (0.15, 20.0)
 _COVER = (0.05, 1.5)
 _BLUR = (0.2, 3.0)
 _BLUR_ALONG = (0.2, 8.0)
+
+#: The bar's footprint, where its misfit is taken: the pixels it covers at least this
+#: share of its coverage ``a`` (half: its core, not its blurred fringe, where a neighbour
+#: beside it would count).
+FOOTPRINT_SHARE = 0.5
 
 #: The fitted centre may lie at most this many half lengths from the start: beyond, the
 #: fit ran off (the start is kept).
@@ -136,9 +141,9 @@ def fit_rod(x, y, cover, start, profile=None):
     (float, float, numpy.ndarray, float) or None
         The centre (u, v), the fitted parameters (u, v, theta, h, w, a, s, s2) and the
         misfit: the RMS residual over the bar's footprint (the pixels it covers at least
-        half as much as its coverage ``a``) over ``a``, small for the rod alone, large
-        where something overlaps it (beside it, outside the footprint, it does not
-        count).
+        :data:`FOOTPRINT_SHARE` of its coverage ``a``) over ``a``, small for the rod
+        alone, large where something overlaps it (beside it, outside the footprint, it
+        does not count).
     """
     from scipy.optimize import least_squares
 
@@ -166,7 +171,7 @@ def fit_rod(x, y, cover, start, profile=None):
     if math.hypot(u - u0, v - v0) > MAX_SHIFT * h0:
         return None
     resid = cached.residual(res.x)
-    foot = (resid + cover) >= 0.5 * res.x[5]
+    foot = (resid + cover) >= FOOTPRINT_SHARE * res.x[5]
     misfit = (float(np.sqrt(np.mean(resid[foot] ** 2))) / res.x[5] if foot.any()
               else float("nan"))
     return u, v, res.x, misfit
