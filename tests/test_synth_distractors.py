@@ -370,12 +370,12 @@ _XFAIL = {}
 #: what was measured (vidtrack bench track --real gives every row).
 _FLIGHT_XFAIL = {
     "rider_crossing": "front view: frame 193 nearer the rider than the straw",
-    "dark_highlight": "front view: frames 2-11 on the blade up to 1.9 px off, unflagged "
-                      "(the release not found on a straw of two polarities)",
-    "dark_highlight_riding": "front view: 283 frames 2-3.6 px off (a rod of two "
-                             "polarities is not measured by the bar; its centroid "
-                             "takes the rider)",
-    "post": "front view: frames 167-172, coming out from behind the post, 0.5-2.9 px off",
+    "dark_highlight": "front view: frame 14, just after the release, 0.54 px off along "
+                      "the straw: the blade it has left, of its polarity, still touches "
+                      "its end in line with it, unflagged",
+    "dark_highlight_riding": "front view: frame 14, as dark_highlight's (0.52 px)",
+    "post": "front view: frames 141-142 going behind the post (0.60, 0.92 px off) and "
+            "172 coming out (0.53 px), unflagged",
 }
 
 

@@ -11,9 +11,12 @@ Each detection is measured where it is found, in the one pass over the footage:
 - its **weighted centroid and second moments**, each pixel weighted by its share of the
   object (its coverage), ``(f - b) / (L - b)`` with ``L`` the object's own grey level
   (the 90th percentile of its pixels, towards its polarity), for an object of one
-  polarity; an object of both (a highlight on a dark ball) weighs each pixel by its
-  difference from the background clipped at the detection's contrast (the 90th
-  percentile of its differences);
+  polarity; an object of both (a highlight on a dark ball, a cup of two tones) weighs
+  each pixel by its difference from the background clipped at the detection's contrast
+  (the 90th percentile of its differences), and its body's level (of the polarity most
+  of its pixels show) is kept where it lies on one side of the background under
+  (nearly) all of it: its chain decides whether it is a body with a highlight
+  (:func:`vidtrack.track.measure.has_highlight`);
 - the **photometric shadow test**, per pixel first: a shadow (or a dimming of the light)
   dims the background by a smooth factor and keeps its texture; an object hides it. A
   pixel darker than the background is a shadow's, and no foreground, where the
@@ -54,13 +57,17 @@ MAX_DETECTIONS = 128
 #: background), the share of the weight brighter than the background, the 10th
 #: percentile of frame / background, the texture correlation, whether it is
 #: shadow-like, whether it touches the frame's border, its contrast (the 90th percentile
-#: of its |difference|) and its own grey level (NaN for an object of two polarities).
+#: of its |difference|), its own grey level (NaN for an object of two polarities),
+#: whether it is of two polarities, and its body's level (of the polarity most of its
+#: pixels beyond ``k_grow`` show) where that lies on one side of the background under
+#: it (a dark ball with a highlight; NaN otherwise).
 DETECTION_DTYPE = np.dtype([("u", "f8"), ("v", "f8"), ("weight", "f8"), ("area", "i4"),
                             ("muu", "f8"), ("mvv", "f8"), ("muv", "f8"),
                             ("contrast", "f4"), ("bright_share", "f4"),
                             ("ratio_p10", "f4"), ("texture_r", "f4"),
                             ("snr", "f4"), ("shadow", "?"), ("border", "?"),
-                            ("level", "f4"), ("obj_level", "f4")])
+                            ("level", "f4"), ("obj_level", "f4"), ("mixed", "?"),
+                            ("body_level", "f4")])
 
 _KERNEL3 = np.ones((3, 3), np.uint8)
 
@@ -75,6 +82,11 @@ TEXTURE_SIGMAS = 3.0
 #: An object whose pixels of the other polarity (beyond ``k_grow``) hold at most this
 #: share of its summed contrast has one grey level (a highlight holds more).
 ONE_LEVEL_SHARE = 0.05
+
+#: An object of two polarities has a body (and a highlight) when its body's level lies
+#: on one side of the background under at least this share of its pixels; else (a grey
+#: object over a light wall and a dark floor) it is weighed by its bounded difference.
+ONE_SIDE_SHARE = 0.9
 
 #: The per-pixel shadow test looks at the square of this side round each pixel (px).
 SHADOW_WINDOW_PX = 5
@@ -162,7 +174,7 @@ def _percentile_by_label(values, labels, n, q):
     return out
 
 
-def pixel_weights(d, b, sigma, level, obj):
+def pixel_weights(d, b, sigma, level, obj, mixed=False, grow=None):
     """Each pixel's share of its object.
 
     Parameters
@@ -172,17 +184,25 @@ def pixel_weights(d, b, sigma, level, obj):
     level : array
         The object's contrast (the 90th percentile of its ``|d|``).
     obj : array
-        The object's own grey level ``L``, NaN for an object of two polarities.
+        The object's own grey level ``L`` (of its body, for an object of two
+        polarities).
+    mixed : bool or array of bool
+        Whether the object is of two polarities (a highlight on a dark ball).
+    grow : array, optional
+        The difference (grey levels) beyond which a pixel is foreground; given, a pixel
+        of a mixed object beyond it of the other polarity than its body is the object's
+        whole (a highlight).
 
     Returns
     -------
     array
-        ``(f - b) / (L - b)`` clipped to [0, 1] where the object has one level that
-        stands 2 noises clear of the background there (its coverage, whatever the
-        background's texture under it: a weight of ``|d|`` would lean towards the
-        darker texture), 0 where the pixel is of the other polarity (its shadow);
-        elsewhere ``min(|d|, level) / level``, bounded (a highlight or texture inside an
-        object of two polarities).
+        ``(f - b) / (L - b)`` clipped to [0, 1] where the object's level stands 2 noises
+        clear of the background there (its coverage, whatever the background's texture
+        under it: a weight of ``|d|`` would lean towards the darker texture), 0 where
+        the pixel is of the other polarity (a one-level object's shadow, compression's
+        ringing) and 1 where it is of the other polarity beyond ``grow`` in a mixed
+        object (a highlight lies on its object); elsewhere ``min(|d|, level) / level``,
+        bounded.
     """
     a = np.abs(d)
     w = np.minimum(a, level) / np.maximum(level, 1e-9)
@@ -190,11 +210,12 @@ def pixel_weights(d, b, sigma, level, obj):
     with np.errstate(invalid="ignore"):
         pol = np.sign(span)
         solid = np.isfinite(span) & (np.abs(span) > CLEAR_SIGMAS * sigma) & (pol * d >= 0)
-        # (of an object of one level, a pixel of the other polarity is none of it: its
-        # shadow, compression's ringing)
         other = np.isfinite(span) & (pol * d < 0)
     w = np.where(other, 0.0, w)
-    return np.where(solid, np.clip(d / np.where(solid, span, 1.0), 0.0, 1.0), w)
+    w = np.where(solid, np.clip(d / np.where(solid, span, 1.0), 0.0, 1.0), w)
+    if grow is not None:
+        w = np.where(other & mixed & (a > grow), 1.0, w)
+    return w
 
 
 class Detector:
@@ -277,7 +298,21 @@ class Detector:
         other = np.bincount(li, np.where((sign[li] * d < -self.grow_level[ys, xs])
                                          & ~dimmed, a, 0.0), m)
         one_level = other <= ONE_LEVEL_SHARE * np.bincount(li, a, m)
-        obj = sign * _percentile_by_label(sign[li] * fv, li, m, 0.9)
+        # (an object of two polarities: its body is the polarity most of its pixels
+        # beyond k_grow show, whatever the other's contrast; the other is a highlight)
+        gl = self.grow_level[ys, xs]
+        more_bright = np.bincount(li, d > gl, m) >= np.bincount(li, d < -gl, m)
+        body = np.where(one_level, sign, np.where(more_bright, 1.0, -1.0))
+        obj = body * _percentile_by_label(body[li] * fv, li, m, 0.9)
+        mixed = ~one_level
+        # (a body's level has one side of the background under nearly all of it, or the
+        # other polarity is no highlight: a grey object over a light wall and a dark
+        # floor is of several tones)
+        above = np.bincount(li, obj[li] > bgv, m) / np.bincount(li, minlength=m)
+        one_side = np.maximum(above, 1.0 - above) >= ONE_SIDE_SHARE
+        body_level = np.where(mixed & one_side, obj, np.nan)
+        # (the detection is weighed as one of several tones, by its bounded difference,
+        # until its chain shows it a body with a highlight)
         obj = np.where(one_level, obj, np.nan)
         w = pixel_weights(d, bgv, self.sigma[ys, xs], level[li], obj[li])
         if light is not None:
@@ -295,7 +330,9 @@ class Detector:
         mvv = np.bincount(li, w * dv * dv, m) / np.maximum(sw, 1e-12)
         muv = np.bincount(li, w * du * dv, m) / np.maximum(sw, 1e-12)
         bright = np.bincount(li, w * (d > 0), m) / np.maximum(sw, 1e-12)
-        contrast = np.bincount(li, w * d, m) / np.maximum(sw, 1e-12)
+        # (a mixed object's contrast is its body's)
+        wb = np.where(body[li] * d >= 0, w, 0.0)
+        contrast = np.bincount(li, wb * d, m) / np.maximum(np.bincount(li, wb, m), 1e-12)
         # the photometric test, over the component's own pixels (not the grown ring)
         core = own[ys, xs] > 0
         ratio = fv / np.maximum(bgv, 1.0)
@@ -328,7 +365,8 @@ class Detector:
         out["contrast"], out["bright_share"] = contrast, bright
         out["ratio_p10"], out["texture_r"] = ratio_p10, texture_r
         out["snr"], out["shadow"], out["border"] = snr, shadow, border
-        out["level"], out["obj_level"] = level, obj
+        out["level"], out["obj_level"], out["mixed"] = level, obj, mixed
+        out["body_level"] = body_level
         out = out[good]
         if out.size > MAX_DETECTIONS:
             out = out[np.argsort(out["snr"])[::-1][:MAX_DETECTIONS]]

@@ -33,7 +33,7 @@ from vidtrack.track.choose import choose
 from vidtrack.track.detect import Detector
 from vidtrack.track.flag import REASON_COLUMN, judge, reason_codes
 from vidtrack.track.link import link
-from vidtrack.track.measure import chain_shape, measure_frame
+from vidtrack.track.measure import chain_shape, has_highlight, measure_frame
 from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
 
 __all__ = ["track_flight"]
@@ -111,11 +111,15 @@ def _measure(source, held, detector, detections, chain, settings, cancel):
     residual = np.full(n, np.nan)
     bars = np.full((n, 4), np.nan)
     wanted = set(int(i) for i in chain.frames)
+    highlight = has_highlight([detections[i][chain.pick[i]] for i in chain.frames])
     frames = held if held is not None else _frames(source, cancel)
     for i, frame in enumerate(frames):
         if i not in wanted:
             continue
         det = detections[i][chain.pick[i]]
+        if det["mixed"] and highlight:
+            det = det.copy()
+            det["obj_level"] = det["body_level"]
         cu, cv, w, muu, mvv, muv, res, bar = measure_frame(
             frame, detector.bg, detector.sigma, det, shape, settings,
             shadow_test=detector.shadow_test)

@@ -20,10 +20,11 @@ import cv2
 import numpy as np
 
 from vidtrack.track.detect import CLEAR_SIGMAS, pixel_weights
+from vidtrack.track.ellipse import fit_ellipse
 from vidtrack.track.rod import fit_rod
 from vidtrack.track.path import robust_scale
 
-__all__ = ["Shape", "measure_frame", "chain_shape"]
+__all__ = ["Shape", "measure_frame", "chain_shape", "has_highlight"]
 
 #: Iterations of the mean shift at most, and the step (px) below which it has converged.
 _ITERATIONS = 12
@@ -42,6 +43,18 @@ NEAR_KERNELS = 2.0
 #: bear) is measured by the bar fitted to it (:mod:`vidtrack.track.rod`): the pixels of
 #: what touches it, inside its kernel too, weigh little.
 ROD_ASPECT = 3.0
+
+
+#: An object is a body with a highlight where at least this share of its chain's frames
+#: show a body of one level and pixels of the other polarity (the synthetic straws and
+#: balls with a highlight: 98-100 %; the diabolo's white and grey cup 19 %, the bears
+#: 21-47 %: their tones change as they turn, and one model for all their frames keeps
+#: their points consistent).
+HIGHLIGHT_FRAMES = 0.5
+
+#: A mixed object's core: the pixels its body covers at least this share of (a dimmer
+#: object of the same polarity beside it, a rider of half its contrast, is not in it).
+CORE = 0.75
 
 
 class Shape:
@@ -65,6 +78,17 @@ def chain_shape(chain):
     if idx.size == 0:
         idx = chain.frames
     return Shape(np.nanmedian(chain.major[idx]), np.nanmedian(chain.minor[idx]))
+
+
+def has_highlight(dets):
+    """Whether a chain's object is a body with a highlight: of two polarities, its body's
+    level on one side of the background, in at least :data:`HIGHLIGHT_FRAMES` of its
+    frames. Else its frames of two polarities are an object of several tones (a white
+    and grey cup, a toy), weighed by their bounded difference."""
+    if not dets:
+        return False
+    body = [bool(d["mixed"]) and np.isfinite(d["body_level"]) for d in dets]
+    return float(np.mean(body)) >= HIGHLIGHT_FRAMES
 
 
 def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=None):
@@ -132,7 +156,16 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     if ys.size == 0:
         return cu, cv, 0.0, np.nan, np.nan, np.nan, np.nan, None
     level = float(det["level"]) if np.isfinite(det["level"]) and det["level"] > 0 else 1.0
-    w = pixel_weights(d[ys, xs], bg[ys, xs], sg[ys, xs], level, float(det["obj_level"]))
+    obj, mixed = float(det["obj_level"]), bool(det["mixed"])
+    grow = settings.k_grow * sg
+    w = pixel_weights(d[ys, xs], bg[ys, xs], sg[ys, xs], level, obj, mixed, grow[ys, xs])
+    inner = None
+    if mixed and np.isfinite(obj):
+        # (a highlight inside the object is the object's, and where its blur cancels
+        # the body's contrast too)
+        inner = _highlight_interior(d, bg, grow, obj, ys, xs, w)
+        if inner is not None:
+            w = np.where(np.isfinite(inner[ys, xs]), inner[ys, xs], w)
     if shade is not None:
         w = np.where(shade[ys, xs], 0.0, w)
     x = xs + c0 + 0.0
@@ -172,15 +205,30 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     out = float(np.sum(w * (near & ~inside)))
     residual = out / (out + sw)
     bar = None
-    if shape.major > ROD_ASPECT * shape.minor and np.isfinite(det["obj_level"]):
-        # a rod: its centre from the bar fitted to the pixels in its kernel (another
-        # object's apart from it left out), robustly, the mean shift's where the fit
-        # fails
-        rod = _rod_centre(d, bg, sg, det, fg, n_lab, lab, (r0, c0), (cu, cv, theta),
-                          (a, b), shape, k, settings)
-        if rod is not None:
-            cu, cv, fitted, misfit = rod
-            shape.profile = fitted[4:]
+    if np.isfinite(obj):
+        # its centre from the model fitted to the pixels in its kernel (another
+        # object's apart from it left out), robustly: a rod's bar, a compact object's
+        # ellipse; the mean shift's where the fit fails or does not explain it
+        span = obj - bg
+        clear = np.abs(span) > CLEAR_SIGMAS * sg
+        sign = 1.0 if det["contrast"] >= 0 else -1.0
+        cover = np.where(clear, d / np.where(clear, span, 1.0), sign * d / level)
+        rod = shape.major > ROD_ASPECT * shape.minor
+        if inner is not None:
+            cover = np.where(np.isfinite(inner), inner, cover)
+        px, py, pc, measured = _kernel_pixels(cover, fg, n_lab, lab, (r0, c0),
+                                              (cu, cv, theta), (a, b), k, inner)
+        if rod:
+            fit = fit_rod(px, py, pc, (cu, cv, theta, np.sqrt(3.0) * shape.major,
+                                       np.sqrt(3.0) * max(shape.minor, 0.3)),
+                          profile=shape.profile, measured=measured)
+        else:
+            fit = fit_ellipse(px, py, pc, (cu, cv, theta), (shape.major, shape.minor),
+                              turn=shape.major > ELONGATED * shape.minor)
+        if fit is not None:
+            cu, cv, fitted, misfit = fit
+            if rod:
+                shape.profile = fitted[4:]
             bar = (float(fitted[3]), float(fitted[4]), float(fitted[5]), misfit)
     eu, ev = x - cu, y - cv
     muu = float(np.sum(wi * eu * eu) / sw)
@@ -189,31 +237,52 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     return cu, cv, sw, muu, mvv, muv, residual, bar
 
 
-def _rod_centre(d, bg, sg, det, fg, n_lab, lab, origin, pose, spreads, shape, k,
-                settings):
-    """The centre of the bar (:func:`vidtrack.track.rod.fit_rod`) fitted to the coverage
-    of the crop's pixels within the kernel at ``pose`` (another detection's pixels apart
-    from the object's left out), or None."""
+def _highlight_interior(d, bg, grow, obj, ys, xs, w):
+    """A mixed object's weights where its body's coverage does not tell them, over
+    the crop (NaN elsewhere). Its highlight (its pixels of the other polarity than its
+    body beyond ``grow``) and the pixels beside it (3 x 3: where the highlight's blur
+    cancels the body's contrast) cover fully inside the convex hull of its core (the
+    pixels its body covers at least :data:`CORE`: a dimmer object touching it is not
+    in it); a highlight's pixel outside it is read against the highlight's own level
+    (the 90th percentile of its ``|d|``). None where there is no highlight or no
+    core."""
+    # (of the other polarity than the body against the background under it: a grey
+    # object over a wall and a floor is of one level, darker than the one and lighter
+    # than the other)
+    hl = np.sign(obj - bg[ys, xs]) * d[ys, xs] < -grow[ys, xs]
+    body = (w >= CORE) & ~hl
+    if not hl.any() or np.count_nonzero(body) < 3:
+        return None
+    inside = np.zeros(d.shape, np.uint8)
+    cv2.fillConvexPoly(inside, cv2.convexHull(np.column_stack((xs[body], ys[body]))
+                                              .astype(np.int32)), 1)
+    light = np.zeros(d.shape, np.uint8)
+    light[ys[hl], xs[hl]] = 1
+    out = np.full(d.shape, np.nan)
+    out[(inside > 0) & (cv2.dilate(light, _KERNEL3) > 0)] = 1.0
+    top = float(np.percentile(np.abs(d[ys, xs][hl]), 90))
+    edge = hl & (inside[ys, xs] == 0)
+    out[ys[edge], xs[edge]] = np.minimum(np.abs(d[ys[edge], xs[edge]]) / top, 1.0)
+    return out
+
+
+def _kernel_pixels(cover, fg, n_lab, lab, origin, pose, spreads, k, inner):
+    """The centres, ``cover`` and measured-or-filled of the crop's pixels within the
+    kernel at ``pose`` (another detection's pixels apart from the object's left out;
+    ``inner``: the filled-in cover of a highlight, NaN elsewhere, or None)."""
     r0, c0 = origin
     cu, cv, theta = pose
     a, b = spreads
-    rr, cc = np.mgrid[0:d.shape[0], 0:d.shape[1]]
+    rr, cc = np.mgrid[0:cover.shape[0], 0:cover.shape[1]]
     x, y = cc + c0 + 0.0, rr + r0 + 0.0
     c, s = np.cos(theta), np.sin(theta)
     du, dv = x - cu, y - cv
     m2 = ((du * c + dv * s) / a) ** 2 + ((-du * s + dv * c) / b) ** 2
-    use = m2 <= k * k
+    use = (m2 <= k * k) & np.isfinite(cover)
     if n_lab > 2:
         use &= (lab == 0) | (fg > 0)
-    span = float(det["obj_level"]) - bg[use]
-    sig = sg[use]
-    level = float(det["level"]) if np.isfinite(det["level"]) and det["level"] > 0 else 1.0
-    sign = 1.0 if det["contrast"] >= 0 else -1.0
-    clear = np.abs(span) > CLEAR_SIGMAS * sig
-    cover = np.where(clear, d[use] / np.where(clear, span, 1.0), sign * d[use] / level)
-    return fit_rod(x[use], y[use], cover, (cu, cv, theta, np.sqrt(3.0) * shape.major,
-                                           np.sqrt(3.0) * max(shape.minor, 0.3)),
-                   profile=shape.profile)
+    measured = None if inner is None else ~np.isfinite(inner[use])
+    return x[use], y[use], cover[use], measured
 
 
 def residual_outliers(residual, settings):

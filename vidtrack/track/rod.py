@@ -25,7 +25,9 @@ import numpy as np
 
 __all__ = ["fit_rod", "F_SCALE", "MIN_LENGTH_PX", "FOOTPRINT_SHARE"]
 
-#: Soft-l1 scale of the residuals, in coverage.
+#: The robust loss of the fit (scipy's ``least_squares``), and the scale of the
+#: residuals it is taken at (coverage).
+LOSS = "soft_l1"
 F_SCALE = 0.1
 
 #: A rod shorter than this (px, twice its half length) is not fitted: nearly end on, its
@@ -42,6 +44,12 @@ _BLUR_ALONG = (0.2, 8.0)
 #: share of its coverage ``a`` (half: its core, not its blurred fringe, where a neighbour
 #: beside it would count).
 FOOTPRINT_SHARE = 0.5
+
+#: The misfit is also taken over the caps beyond the bar's ends, this far along (px)
+#: and as wide as the bar: something in line with an end (a blade it has left,
+#: a second straw across it) moves the end, and the centre along, where something
+#: beside the bar does not.
+CAP_PX = 2.0
 
 #: The fitted centre may lie at most this many half lengths from the start: beyond, the
 #: fit ran off (the start is kept).
@@ -129,20 +137,26 @@ class _Cached:
         return _jacobian(p, self.x, self.y, self._at(p))
 
 
-def fit_rod(x, y, cover, start, profile=None):
+def _rms(r):
+    return float(np.sqrt(np.mean(r * r))) if r.size else 0.0
+
+
+def fit_rod(x, y, cover, start, profile=None, measured=None):
     """The bar fitted to the coverage ``cover`` at pixel centres ``(x, y)``, from
     ``start = (u, v, theta, half_length, half_width)`` and, where given, ``profile``
     (the half width, coverage and blurs across and along of the bar fitted to the frame
     before: a start nearer the answer); None when the rod is too short, the fit fails or
-    runs off.
+    runs off. ``measured`` (bool per pixel, default all): the pixels whose coverage was
+    measured, not filled in (a highlight's): only they count towards the misfit.
 
     Returns
     -------
     (float, float, numpy.ndarray, float) or None
         The centre (u, v), the fitted parameters (u, v, theta, h, w, a, s, s2) and the
         misfit: the RMS residual over the bar's footprint (the pixels it covers at least
-        :data:`FOOTPRINT_SHARE` of its coverage ``a``) over ``a``, small for the rod
-        alone, large where something overlaps it (beside it, outside the footprint, it
+        :data:`FOOTPRINT_SHARE` of its coverage ``a``, and the caps :data:`CAP_PX`
+        beyond its ends) over ``a``, small for the rod alone, large where something
+        overlaps it or lies in line with an end (beside it, outside the footprint, it
         does not count).
     """
     from scipy.optimize import least_squares
@@ -161,7 +175,7 @@ def fit_rod(x, y, cover, start, profile=None):
     cached = _Cached(x, y, cover)
     try:
         res = least_squares(cached.residual, p0, jac=cached.jacobian, bounds=(lo, hi),
-                            loss="soft_l1", f_scale=F_SCALE, xtol=1e-5, ftol=1e-5,
+                            loss=LOSS, f_scale=F_SCALE, xtol=1e-5, ftol=1e-5,
                             max_nfev=60)
     except (ValueError, np.linalg.LinAlgError):
         return None
@@ -171,7 +185,12 @@ def fit_rod(x, y, cover, start, profile=None):
     if math.hypot(u - u0, v - v0) > MAX_SHIFT * h0:
         return None
     resid = cached.residual(res.x)
+    _, _, q, r, *_ = cached.parts
+    h, w = res.x[3], res.x[4]
     foot = (resid + cover) >= FOOTPRINT_SHARE * res.x[5]
-    misfit = (float(np.sqrt(np.mean(resid[foot] ** 2))) / res.x[5] if foot.any()
-              else float("nan"))
+    caps = (np.abs(r) <= w) & (np.abs(q) > h) & (np.abs(q) <= h + CAP_PX)
+    if measured is not None:
+        foot &= measured
+        caps &= measured
+    misfit = max(_rms(resid[foot]), _rms(resid[caps])) / res.x[5]
     return u, v, res.x, misfit

@@ -1,0 +1,179 @@
+"""A compact object's image as a model: a blurred ellipse fitted to the pixels round it.
+
+The flight tracker measures a compact object (a ball, a cup: its spread along less than
+:data:`vidtrack.track.measure.ROD_ASPECT` times its spread across) by fitting
+
+    c(x, y) = a * Phi(-d(x, y) / s),
+    d = (rho^2 - 1) / |grad rho^2|,  rho^2 = (q / A)^2 + (r / B)^2
+
+to each pixel's coverage ``c`` (its difference from the background over the object's
+own contrast there, not clipped), with ``q, r`` a pixel centre's distance along and
+across the ellipse of centre ``(u, v)`` and angle ``theta``, ``A`` and ``B`` its
+semi-axes, ``a`` its coverage (1 for an opaque object) and ``s`` its blur (optics,
+motion; with the pixel's box). The semi-axes are not free: they follow from the
+object's spreads over its chain and the blur, so a part hidden (behind a post) or
+something touching the object is a misfit, not a smaller or larger ellipse. ``d`` is the distance from the outline to first order
+(exact at the outline, the only place where ``Phi`` is not 0 or 1). The ellipse's centre
+is a uniform ellipse's coverage centroid. The fit is robust (scipy's least squares, the
+soft-l1 loss at :data:`~vidtrack.track.rod.F_SCALE` of full coverage): what touches the
+object (a blade, a hand, its shadow), which the ellipse does not explain, weighs little,
+where a centroid weighs every pixel alike.
+
+An object that is no ellipse (a shuttlecock, a bear) is not measured by one: the fit is
+kept only where its misfit over the ellipse's footprint is at most
+:data:`MAX_MISFIT`.
+"""
+
+import math
+
+import numpy as np
+
+from vidtrack.track.rod import F_SCALE, FOOTPRINT_SHARE, LOSS
+
+__all__ = ["fit_ellipse", "MAX_MISFIT"]
+
+#: The ellipse measures the object only where it explains it: the RMS residual over its
+#: footprint (the pixels it covers at least half) at most this share of its coverage
+#: (the synthetic balls: 0.02-0.05; an object of another shape, or something over it,
+#: more).
+MAX_MISFIT = 0.12
+
+#: The fitted centre may lie at most this many of the object's minor spreads (and at
+#: least a pixel) from the start: beyond, the fit ran off (the start is kept).
+MAX_SHIFT = 0.5
+
+#: The blur of the pixel's box (px, a standard deviation: its width over sqrt(12)).
+_BOX_BLUR = math.sqrt(1.0 / 12.0)
+
+#: Bounds of the coverage and the blur (px).
+_COVER = (0.05, 1.5)
+_BLUR = (0.3, 4.0)
+
+
+def _axes(spread, blur):
+    """A uniform ellipse's semi-axis from its blurred image's spread along it: the
+    variance of a uniform disk's image is ``R^2 / 4`` plus the blur's ``s^2`` and the
+    pixel's box's ``1 / 12``."""
+    return 2.0 * np.sqrt(np.maximum(spread ** 2 - blur ** 2 - 1.0 / 12.0, 0.0625))
+
+
+def _unpack(p, theta):
+    if theta is None:
+        u, v, th, a, s = p
+    else:
+        (u, v, a, s), th = p, theta
+    return u, v, th, a, s
+
+
+def _parts(p, x, y, spreads, theta):
+    """The model's intermediate quantities at ``p`` (what the model and its Jacobian
+    share)."""
+    u, v, th, a, s = _unpack(p, theta)
+    big, small = _axes(spreads[0], s), _axes(spreads[1], s)
+    ca, sa = math.cos(th), math.sin(th)
+    dx, dy = x - u, y - v
+    q = dx * ca + dy * sa
+    r = dy * ca - dx * sa
+    g = (q / big) ** 2 + (r / small) ** 2 - 1.0
+    root = np.maximum(np.sqrt((q / big ** 2) ** 2 + (r / small ** 2) ** 2), 5e-10)
+    dist = g / (2.0 * root)
+    sig = math.hypot(s, _BOX_BLUR)
+    z = -dist / sig
+    from scipy.special import ndtr
+
+    return u, v, th, a, s, big, small, ca, sa, q, r, g, root, dist, sig, z, ndtr(z)
+
+
+def _model(p, x, y, spreads, theta):
+    parts = _parts(p, x, y, spreads, theta)
+    return parts[3] * parts[-1]
+
+
+def _jacobian(p, x, y, spreads, theta):
+    """The model's derivatives by its parameters (u, v, [theta], a, s)."""
+    (u, v, th, a, s, big, small, ca, sa, q, r, g, root, dist, sig, z,
+     cdf) = _parts(p, x, y, spreads, theta)
+    pdf = np.exp(-0.5 * z * z) / math.sqrt(2.0 * math.pi)
+    c_dist = -a * pdf / sig
+    # dist = g / (2 root): its derivatives by q, r and the semi-axes
+    grad = 2.0 * root
+
+    def d_dist(dg, droot):
+        return (dg * grad - g * 2.0 * droot) / (grad * grad)
+
+    dq = d_dist(2.0 * q / big ** 2, q / (big ** 4 * root))
+    dr = d_dist(2.0 * r / small ** 2, r / (small ** 4 * root))
+    dbig = d_dist(-2.0 * q * q / big ** 3, -2.0 * q * q / (big ** 5 * root))
+    dsmall = d_dist(-2.0 * r * r / small ** 3, -2.0 * r * r / (small ** 5 * root))
+    # (the semi-axes shrink as the blur grows: A = 2 sqrt(spread^2 - s^2 - 1/12))
+    floor = 2.0 * math.sqrt(0.0625)
+    big_s = -4.0 * s / big if big > floor else 0.0
+    small_s = -4.0 * s / small if small > floor else 0.0
+    cols = [c_dist * (-dq * ca + dr * sa), c_dist * (-dq * sa - dr * ca)]
+    if theta is None:
+        cols.append(c_dist * (dq * r - dr * q))
+    cols.append(cdf)
+    cols.append(c_dist * (dbig * big_s + dsmall * small_s) + a * pdf * dist * s / sig ** 3)
+    return np.column_stack(cols)
+
+
+def fit_ellipse(x, y, cover, start, spreads, turn=True):
+    """The ellipse of the object's spreads fitted to the coverage ``cover`` at pixel
+    centres ``(x, y)`` from ``start = (u, v, theta)``; None where the fit fails, runs
+    off, its coverage is pinned at its bound, or it does not explain the object (its
+    misfit beyond :data:`MAX_MISFIT`).
+
+    Parameters
+    ----------
+    x, y, cover : numpy.ndarray
+    start : (float, float, float)
+    spreads : (float, float)
+        The object's spreads (px, standard deviations of its image) along its major and
+        minor axes, from its chain: the semi-axes follow from them and the fitted blur
+        (:func:`_axes`), so that a part hidden or something touching the object does
+        not shrink or grow the ellipse: it is a misfit.
+    turn : bool
+        Whether its angle is fitted (False: a round object's is kept).
+
+    Returns
+    -------
+    (float, float, numpy.ndarray, float) or None
+        The centre (u, v), the ellipse ``(u, v, theta, A, B, a, s)`` and the misfit:
+        the RMS residual over the ellipse's footprint (the pixels it covers at least
+        :data:`~vidtrack.track.rod.FOOTPRINT_SHARE` of its coverage) over ``a``.
+    """
+    from scipy.optimize import least_squares
+
+    u0, v0, th0 = start
+    if x.size < 12:
+        return None
+    theta = None if turn else th0
+    p0 = [u0, v0] + ([th0] if turn else []) + [1.0, 0.7]
+    lo = [-np.inf, -np.inf] + ([-np.inf] if turn else []) + [_COVER[0], _BLUR[0]]
+    hi = [np.inf, np.inf] + ([np.inf] if turn else []) + [_COVER[1], _BLUR[1]]
+    try:
+        res = least_squares(lambda p: _model(p, x, y, spreads, theta) - cover, p0,
+                            jac=lambda p: _jacobian(p, x, y, spreads, theta),
+                            bounds=(lo, hi), loss=LOSS, f_scale=F_SCALE, xtol=1e-5,
+                            ftol=1e-5, max_nfev=60)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    if not (res.success and np.isfinite(res.x).all()):
+        return None
+    u, v = float(res.x[0]), float(res.x[1])
+    if math.hypot(u - u0, v - v0) > max(MAX_SHIFT * spreads[1], 1.0):
+        return None
+    if res.x[-2] >= _COVER[1] * (1.0 - 1e-6):
+        # (pinned at its bound: the pixels are not those of the object's level, one of
+        # another object's joined to it)
+        return None
+    model = _model(res.x, x, y, spreads, theta)
+    a, s = res.x[-2], res.x[-1]
+    foot = model >= FOOTPRINT_SHARE * a
+    if not foot.any():
+        return None
+    misfit = float(np.sqrt(np.mean((model - cover)[foot] ** 2))) / a
+    if misfit > MAX_MISFIT:
+        return None
+    th = res.x[2] if turn else th0
+    return u, v, np.array([u, v, th, _axes(spreads[0], s), _axes(spreads[1], s), a, s]), misfit
