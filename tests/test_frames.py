@@ -219,6 +219,62 @@ def test_to_dict_describes_the_source(case):
         assert repr(src).startswith("<")
 
 
+SLICES = [slice(10, 20), slice(None, None, 3), slice(-5, None), slice(15, 4, -2),
+          slice(None, None, -1), slice(3, 3), [3, 7, -1, 7], np.array([19, 0]),
+          np.arange(N) % 4 == 1]
+
+
+@pytest.mark.parametrize("key", SLICES, ids=repr)
+def test_slices_are_views_in_the_file_numbering(case, key):
+    want = np.arange(N)[key]            # numpy's own indexing is the truth of which frames
+    with open_source(case["path"], **case["kwargs"]) as src:
+        view = src[key]
+        assert len(view) == len(want) and view.shape == src.shape and view.dtype == src.dtype
+        np.testing.assert_array_equal(view.frame_numbers, want)
+        np.testing.assert_allclose(view.times_s, want / case["fps"], rtol=0, atol=1e-9)
+        frames = list(view)
+        assert len(frames) == len(want)
+        for f, k in zip(frames, want):
+            assert_frame_is(f, case["truth"], k, case["lossless"])
+        for i in (0, -1) if len(want) else ():
+            np.testing.assert_array_equal(view[i], frames[i])
+            assert view.time_s(i) == pytest.approx(want[i] / case["fps"], abs=1e-9)
+
+
+def test_a_view_slices_again_and_keeps_a_range_s_numbering(case):
+    with open_source(case["path"], frames=(3, 17), **case["kwargs"]) as src:
+        view = src[2:12][::2][1:]         # file frames 7, 9, 11, 13
+        np.testing.assert_array_equal(view.frame_numbers, [7, 9, 11, 13])
+        assert view.source is src
+        for i, f in enumerate(view):
+            assert_frame_is(f, case["truth"], 7 + 2 * i, case["lossless"])
+        assert_frame_is(view[-1], case["truth"], 13, case["lossless"])
+        with pytest.raises(IndexError):
+            view[4]
+        with pytest.raises(IndexError):
+            src[[0, 14]]
+        with pytest.raises(IndexError):
+            src[np.ones(3, dtype=bool)]
+        with pytest.raises(TypeError):
+            view["1"]
+        json_ready = view.to_dict()
+        assert json_ready["frames"] == 4 and json_ready["frame_numbers"] == [7, 9, 11, 13]
+
+
+def test_slicing_decodes_nothing(case):
+    # a view made while the source is open and read after it is closed: had the slice
+    # decoded its frames, they would be there; they are read only when asked for
+    with open_source(case["path"], **case["kwargs"]) as src:
+        view = src[5:15]
+        everything = src[:]
+    assert len(everything) == N and len(view) == 10
+    np.testing.assert_array_equal(view.frame_numbers, np.arange(5, 15))
+    with pytest.raises(SourceError, match="closed"):
+        view[0]
+    with pytest.raises(SourceError, match="closed"):
+        next(iter(view))
+
+
 # ---------------------------------------------------------------------------------------
 # Streaming: memory does not grow with the length of the footage
 # ---------------------------------------------------------------------------------------
@@ -267,6 +323,19 @@ def test_iteration_does_not_accumulate_frames(long_source):
 # ---------------------------------------------------------------------------------------
 # Videos
 # ---------------------------------------------------------------------------------------
+def test_a_view_of_long_footage_holds_no_frame(long_source):
+    with open_source(long_source, fps=FPS) as src:
+        frame_bytes = src[0].nbytes
+        view = None
+
+        def slice_all():
+            nonlocal view
+            view = src[::-1]
+
+        assert _peak_bytes(slice_all) < frame_bytes
+        np.testing.assert_array_equal(view[0], src[LONG - 1])
+
+
 def test_video_container_rate_without_capture_rate(tmp_path):
     path = write_video(tmp_path / "v.avi", quantise(scene(), 8), "MJPG")
     with open_source(path) as src:

@@ -96,11 +96,31 @@ def test_numbers_and_pixels_never_import_the_app(graph):
     assert bad == []
 
 
+#: What the package root's own imports may load besides the shared utilities: the
+#: tracking stage's package, made callable (``from vidtrack import track``); its
+#: ``__init__`` imports nothing.
+ROOT_LOADS = {"vidtrack.track"}
+#: The root's names that the stages may import from it (rank 0: no stage's code).
+ROOT_OWN = {"__version__", "LOGGERS", "VidtrackError", "_moved", "_lazy", "_atomic",
+            "_progress", "errors"}
+
+
+def _root_api():
+    """The package root's table of public names, loaded on first use: {module: names}."""
+    tree = ast.parse((REPO / "vidtrack" / "__init__.py").read_text())
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and [t.id for t in node.targets] == ["_EXPORTS"]:
+            return ast.literal_eval(node.value)
+    raise AssertionError("vidtrack/__init__.py has no _EXPORTS table")
+
+
 def test_vidtrack_stages_import_only_earlier_stages(graph):
     bad = []
     for m, deps in graph.items():
         if not m.startswith("vidtrack"):
             continue
+        if m == "vidtrack":          # the root: its own imports, checked below
+            deps = deps - ROOT_LOADS
         here = _stage(m)
         for d in deps:
             if not d.startswith("vidtrack"):
@@ -142,6 +162,51 @@ def test_no_import_cycles(graph):
         if node not in state:
             visit(node, [])
     assert cycles == [], cycles
+
+
+def test_the_root_api_is_loaded_on_first_use_and_no_stage_imports_it():
+    # the root re-exports the public calls of later stages (its _EXPORTS, PEP 562): it
+    # names them but loads none until asked, so importing vidtrack stays cheap and no
+    # cycle can form at import time, as long as no stage takes those names from the root
+    import subprocess
+
+    code = ("import sys, vidtrack\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('vidtrack', 'fits', 'calibration', 'numpy', 'pandas', 'cv2')))\n")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=REPO, timeout=120)
+    assert res.returncode == 0, res.stderr
+    loaded = set(ast.literal_eval(res.stdout.strip()))
+    assert loaded == {"vidtrack", "vidtrack._lazy", "vidtrack._moved"} | ROOT_LOADS
+    exported = {n for names in _root_api().values() for n in names}
+    bad = []
+    for path in sorted((REPO / "vidtrack").rglob("*.py")):
+        if path == REPO / "vidtrack" / "__init__.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.ImportFrom) and node.module == "vidtrack" and not node.level:
+                bad += [f"{path.relative_to(REPO)}: {a.name}" for a in node.names
+                        if a.name in exported or a.name not in ROOT_OWN]
+    assert bad == [], "stages must import these from their own modules:\n" + "\n".join(bad)
+
+
+def test_the_root_api_resolves_to_the_stages_objects():
+    import inspect
+
+    import vidtrack
+    from vidtrack.track.tracker import track
+
+    for module, names in _root_api().items():
+        assert _is_module(module), module
+        for name in names:
+            assert getattr(vidtrack, name) is getattr(importlib.import_module(module), name)
+    assert set(vidtrack.__all__) >= {"open_source", "track", "fit_run", "read_tracks"}
+    # `track` is the package (its modules import as before), called as the tracker
+    assert vidtrack.track is importlib.import_module("vidtrack.track")
+    assert importlib.import_module("vidtrack.track.tracker").track is track
+    assert inspect.signature(vidtrack.track) == inspect.signature(track)
+    with pytest.raises(TypeError, match="source"):
+        vidtrack.track()
 
 
 @pytest.mark.parametrize("old", sorted(importlib.import_module("vidtrack._moved").MOVED))

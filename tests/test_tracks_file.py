@@ -31,7 +31,9 @@ def _track(view, n, rng, *, release=5):
 
 
 def _world(n, rng):
-    data = pd.DataFrame({"t_s": np.arange(n) / 1200.0, "x_m": rng.normal(0.3, 0.1, n),
+    # rows at the front view's frames from t = 0 (t0 0.01 s: frame 12 of _track's clock)
+    data = pd.DataFrame({"frame": 12 + np.arange(n), "t_s": np.arange(n) / 1200.0,
+                         "x_m": rng.normal(0.3, 0.1, n),
                          "y_m": rng.normal(0.1, 0.1, n), "z_m": np.full(n, np.nan)})
     return WorldTrack(data=data, t0_s={"front": 0.01, "top": 0.0097},
                       sync={"front": "release", "top": "shared x"}, reference="front",

@@ -71,6 +71,9 @@ def test_world_track_against_truth(delayed):
     w = merge_tracks(tracks, mappings, sync={"front": 12, "top": "auto"})
     assert tuple(w.data.columns) == WORLD_COLUMNS
     assert w.data["t_s"].iloc[0] >= 0 and np.all(np.diff(w.data["t_s"]) > 0)
+    # the rows are the front view's frames from its sync frame on: t = (frame - 12) / fps
+    assert w.data["frame"].dtype == np.int64
+    np.testing.assert_array_equal(w.data["frame"], 12 + np.round(w.data["t_s"] * FPS))
     per_frame, _ = view_truth(run, "front")
     t_true = per_frame["t_s"].to_numpy(float)
     for axis in "xyz":

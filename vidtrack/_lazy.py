@@ -7,8 +7,9 @@ package (``vidtrack.footage.timebase``, say) then loads none of the others, and
 """
 
 import importlib
+import types
 
-__all__ = ["lazy_exports"]
+__all__ = ["lazy_exports", "callable_package"]
 
 
 def lazy_exports(package, exports):
@@ -28,3 +29,38 @@ def lazy_exports(package, exports):
         return sorted(set(namespace) | set(module_of))
 
     return __getattr__, __dir__, list(module_of)
+
+
+def _call_target(package):
+    module, name = package.__dict__["__call_target__"]
+    return getattr(importlib.import_module(module), name)
+
+
+class _CallablePackage(types.ModuleType):
+    """A package that, called, calls one function of one of its modules (loaded then).
+
+    Only dunder names here: any other would be hidden by a submodule of that name."""
+
+    def __call__(self, *args, **kwargs):
+        return _call_target(self)(*args, **kwargs)
+
+    @property
+    def __signature__(self):
+        import inspect
+
+        return inspect.signature(_call_target(self))
+
+
+def callable_package(package, module, name):
+    """Make ``package`` callable as ``module.name`` and return it.
+
+    For a package whose public function has the package's name (``vidtrack.track`` and
+    its ``track``): ``from vidtrack import track`` gives the package, which must then be
+    callable, while ``vidtrack.track.tracker`` stays importable (a function in its place
+    would hide the package from ``import vidtrack.track.tracker as t``). The package is
+    imported (its ``__init__`` must stay light); ``module`` only on the first call.
+    """
+    pkg = importlib.import_module(package)
+    pkg.__dict__["__call_target__"] = (module, name)
+    pkg.__class__ = _CallablePackage
+    return pkg

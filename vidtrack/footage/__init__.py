@@ -1,6 +1,7 @@
 """Footage: frame sources (videos, image folders, Phantom .cine), the time base, frame export.
 
-- ``base``: :class:`FrameSource` (the interface of every source), :func:`to_grey`,
+- ``base``: :class:`FrameSource` (the interface of every source), :class:`SourceView`
+  (frames of a source chosen by a slice, read lazily), :func:`to_grey`,
   :func:`natural_key`;
 - ``video``: :class:`VideoSource` (any file OpenCV/FFmpeg decodes);
 - ``images``: :class:`ImageFolderSource` (a folder of png/jpg/tif/bmp files);
@@ -19,7 +20,7 @@ None of them loads OpenCV before it reads or writes a frame.
 from vidtrack._lazy import lazy_exports
 
 _EXPORTS = {
-    "vidtrack.footage.base": ("FrameSource", "natural_key", "to_grey"),
+    "vidtrack.footage.base": ("FrameSource", "SourceView", "natural_key", "to_grey"),
     "vidtrack.footage.video": ("VideoSource",),
     "vidtrack.footage.images": ("ImageFolderSource", "IMAGE_SUFFIXES"),
     "vidtrack.footage.cine": ("CineSource", "write_cine"),

@@ -21,6 +21,15 @@ With ``frames=(a, b)`` the source covers the file's frames ``a .. b - 1``;
 (``a + i``). Times are in seconds relative to the file's first frame (file frame 0),
 so a range does not shift the clock.
 
+Slices
+------
+A slice, a sequence of indices or a boolean mask gives a :class:`SourceView`, as PIMS
+does: ``source[10:20]``, ``source[::2]``, ``source[-50:]``, ``source[[3, 7]]``. Nothing is
+decoded until a frame is read; the view keeps the file's numbering and clock
+(``view.frame_numbers``, ``view.times_s``), slices again, and goes wherever a source
+goes (``track(source[100:400])``). It reads through its source, so it is usable while
+the source is open.
+
 The time base (which rate gives the times) is, in order of precedence:
 
 1. per-image time stamps of a .cine file (unless ``use_time_stamps=False``);
@@ -51,7 +60,8 @@ import numpy as np
 
 from vidtrack.errors import SourceError
 
-__all__ = ["CHANNEL_INDEX", "COLOUR_ONLY", "FrameSource", "natural_key", "to_grey"]
+__all__ = ["CHANNEL_INDEX", "COLOUR_ONLY", "FrameSource", "SourceView", "natural_key",
+           "to_grey"]
 
 
 def _cv2():
@@ -360,37 +370,40 @@ class FrameSource:
     def times_s(self):
         """Time (s) of every source frame, relative to the file's first frame."""
         if self._times_cache is None:
-            times = self._file_times_s(self.frame_numbers)
-            if times is None:
-                raise SourceError(
-                    f"{self.path}: no frame rate is known for this {self.kind}; give the capture "
-                    "rate (scene.toml views.<view>.fps, or --fps)")
-            times = np.asarray(times, dtype=np.float64)
-            times.flags.writeable = False
-            self._times_cache = times
+            self._times_cache = self._times_of(self.frame_numbers)
         return self._times_cache
+
+    def _times_of(self, ks):
+        """Times (s) of file frames ``ks`` as a read-only array; SourceError if unknown."""
+        times = self._file_times_s(ks)
+        if times is None:
+            raise SourceError(
+                f"{self.path}: no frame rate is known for this {self.kind}; give the capture "
+                "rate (scene.toml views.<view>.fps, or --fps)")
+        times = np.asarray(times, dtype=np.float64)
+        times.flags.writeable = False
+        return times
 
     def time_s(self, i):
         """Time (s) of source frame ``i``, relative to the file's first frame."""
         return float(self.times_s[self._index(i)])
 
     def _index(self, i):
-        if isinstance(i, (bool, np.bool_)) or not isinstance(i, (int, np.integer)):
-            raise TypeError(f"frame index must be an integer, got {type(i).__name__}")
-        n = len(self)
-        j = int(i) + n if i < 0 else int(i)
-        if not 0 <= j < n:
-            raise IndexError(f"frame index {i} out of range for {n} frames")
-        return j
+        return _index(i, len(self))
 
     def _check_open(self):
         if self._closed:
             raise SourceError(f"{self.path}: the source is closed")
 
-    def __getitem__(self, i):
-        j = self._index(i)
-        self._check_open()
-        return self._read_file_frame(self._start + j)
+    def __getitem__(self, key):
+        """Frame ``key`` (an int, negative from the end), or with a slice or a sequence of
+        ints (or a boolean mask) a :class:`SourceView` of those frames, decoded only when
+        read."""
+        if isinstance(key, (int, np.integer)) and not isinstance(key, (bool, np.bool_)):
+            j = self._index(key)
+            self._check_open()
+            return self._read_file_frame(self._start + j)
+        return SourceView(self, self.frame_numbers[_positions(key, len(self))])
 
     def __iter__(self):
         self._check_open()
@@ -430,3 +443,140 @@ class FrameSource:
         return (f"<{type(self).__name__} {str(self.path)!r}: {len(self)} frames "
                 f"{self.shape[0]}x{self.shape[1]} {self.dtype} ({self.bit_depth} bit), "
                 f"fps={self.fps} ({self.time_source})>")
+
+
+def _index(i, n):
+    """Source index ``i`` (negative: from the end) of ``n`` frames as 0 .. n - 1."""
+    if isinstance(i, (bool, np.bool_)) or not isinstance(i, (int, np.integer)):
+        raise TypeError(f"frame index must be an integer, got {type(i).__name__}")
+    j = int(i) + n if i < 0 else int(i)
+    if not 0 <= j < n:
+        raise IndexError(f"frame index {i} out of range for {n} frames")
+    return j
+
+
+def _positions(key, n):
+    """The source indices (an int array) that a slice, a sequence of ints or a boolean
+    mask of length ``n`` selects; IndexError or TypeError as a sequence gives them."""
+    if isinstance(key, slice):
+        return np.arange(n)[key]
+    if isinstance(key, (str, bytes)) or not hasattr(key, "__len__"):
+        raise TypeError("frame index must be an integer, a slice, a sequence of integers or "
+                        f"a boolean mask, got {type(key).__name__}")
+    idx = np.asarray(key)
+    if idx.ndim != 1:
+        raise IndexError(f"frame indices must be one-dimensional, got shape {idx.shape}")
+    if idx.dtype == bool:
+        if idx.size != n:
+            raise IndexError(f"a boolean mask of {idx.size} values for {n} frames")
+        return np.flatnonzero(idx)
+    if idx.size == 0:
+        return idx.astype(np.int64)
+    if not np.issubdtype(idx.dtype, np.integer):
+        raise TypeError(f"frame indices must be integers, got {idx.dtype}")
+    bad = (idx < -n) | (idx >= n)
+    if bad.any():
+        raise IndexError(f"frame index {int(idx[bad][0])} out of range for {n} frames")
+    return np.where(idx < 0, idx + n, idx).astype(np.int64)
+
+
+class SourceView:
+    """Some frames of a :class:`FrameSource`, chosen by a slice or indices, read lazily.
+
+    What ``source[10:20]`` (or ``source[::2]``, ``source[[3, 7]]``, a boolean mask)
+    returns: a sequence of grey frames like its source, decoding a frame only when it is
+    read, in the file's numbering and on the file's clock. Slicing a view gives a view
+    of the same source.
+
+    Attributes
+    ----------
+    source : FrameSource
+        The source read (it must stay open while the view is read).
+    frame_numbers : numpy.ndarray
+        0-based file index of each frame of the view, in the view's order.
+    path, shape, dtype, bit_depth, fps, fps_given, fps_container, time_source, channel, kind
+        As the source's.
+
+    Examples
+    --------
+    >>> with open_source("run42/front.avi", fps=1200) as src:     # doctest: +SKIP
+    ...     clip = src[100:400:2]       # nothing decoded yet
+    ...     first = clip[0]             # file frame 100
+    ...     clip.frame_numbers[:3], clip.times_s[:3]
+    (array([100, 102, 104]), array([0.0833, 0.085 , 0.0867]))
+    """
+
+    def __init__(self, source, frame_numbers):
+        self.source = source
+        frames = np.array(frame_numbers, dtype=np.int64)
+        frames.flags.writeable = False
+        self._frames = frames
+        self._times_cache = None
+
+    # -- as the source ------------------------------------------------------------------
+    path = property(lambda self: self.source.path)
+    kind = property(lambda self: self.source.kind)
+    shape = property(lambda self: self.source.shape)
+    dtype = property(lambda self: self.source.dtype)
+    bit_depth = property(lambda self: self.source.bit_depth)
+    channel = property(lambda self: self.source.channel)
+    fps = property(lambda self: self.source.fps)
+    fps_given = property(lambda self: self.source.fps_given)
+    fps_container = property(lambda self: self.source.fps_container)
+    time_source = property(lambda self: self.source.time_source)
+    notes = property(lambda self: self.source.notes)
+
+    # -- the frames ----------------------------------------------------------------------
+    def __len__(self):
+        return len(self._frames)
+
+    def len(self):
+        """Number of frames (same as ``len(view)``)."""
+        return len(self)
+
+    @property
+    def frame_numbers(self):
+        """0-based file index of every frame of the view."""
+        return self._frames
+
+    @property
+    def times_s(self):
+        """Time (s) of every frame of the view, relative to the file's first frame."""
+        if self._times_cache is None:
+            self._times_cache = self.source._times_of(self._frames)
+        return self._times_cache
+
+    def time_s(self, i):
+        """Time (s) of frame ``i`` of the view, relative to the file's first frame."""
+        return float(self.times_s[_index(i, len(self))])
+
+    def __getitem__(self, key):
+        if isinstance(key, (int, np.integer)) and not isinstance(key, (bool, np.bool_)):
+            k = self._frames[_index(key, len(self))]
+            self.source._check_open()
+            return self.source._read_file_frame(int(k))
+        return SourceView(self.source, self._frames[_positions(key, len(self))])
+
+    def __iter__(self):
+        self.source._check_open()
+        frames = self._frames
+        if len(frames) > 1 and np.all(np.diff(frames) == 1):
+            # a run of consecutive frames: decoded as the source streams its own
+            yield from self.source._iter_file(int(frames[0]), int(frames[-1]) + 1)
+            return
+        for k in frames:
+            self.source._check_open()
+            yield self.source._read_file_frame(int(k))
+
+    def to_dict(self):
+        """The source's :meth:`FrameSource.to_dict`, with the view's frame count and its
+        ``frame_numbers``."""
+        return {**self.source.to_dict(), "frames": len(self),
+                "frame_numbers": self._frames.tolist()}
+
+    def __repr__(self):
+        shown = self._frames.tolist()
+        if len(shown) > 6:
+            shown = shown[:3] + ["..."] + shown[-2:]
+        return (f"<SourceView of {type(self.source).__name__} {str(self.path)!r}: "
+                f"{len(self)} frames, file frames [{', '.join(map(str, shown))}]>")

@@ -603,18 +603,53 @@ def _stop_workers(workers):
 
 
 def fit_run(run_dir, options=FitOptions(), *, plan=None, workers=None):
-    """Fit one run folder (and each of its throws); returns the run's fit.json record.
+    """Fit one run folder (and each of its throws): footage to tracks, world track, k1..k4.
 
-    ``plan``: the run as :func:`vidtrack.run.preflight.prepare_run` checked it (default:
-    checked here, before anything is tracked). ``workers``: a dict holding a worker
-    process to use (the caller stops it); default one of the run's own.
+    What ``vidtrack fit RUN`` does for one run: the outputs are written to
+    ``<run>/vidtrack/`` (tracks.h5, tracks.csv, world.csv, fit.json, the reports), and a
+    stage whose inputs are unchanged is reused.
+
+    Parameters
+    ----------
+    run_dir : str or os.PathLike
+        The run folder (with scene.toml).
+    options : FitOptions, optional
+        The model, bootstrap, ``force``, ``report``, ...
+    plan : vidtrack.run.preflight.RunPlan, optional
+        The run as :func:`vidtrack.run.preflight.prepare_run` checked it (default:
+        checked here, before anything is tracked).
+    workers : dict, optional
+        Holds a worker process to use (the caller stops it); default one of the run's own.
+
+    Returns
+    -------
+    vidtrack.run.results.RunFit
+        k1..k4 (``params``, ``bse``, ``conf_int()``, ``summary()``), the tracks and the
+        world track as DataFrames, ``to_dict()`` (what fit.json holds); as a mapping, the
+        run's record (fit.json's fields, ``stages_reused`` as this call found them).
+
+    Raises
+    ------
+    VidtrackError
+        Bad input, inputs that disagree (unless ``options.accept_disagreement``), a fit
+        that does not converge; the message names the run, the throw and the view.
+
+    Examples
+    --------
+    >>> from vidtrack import fit_run                                # doctest: +SKIP
+    >>> fit = fit_run("datasets/run42")                             # doctest: +SKIP
+    >>> print(fit.summary())                                        # doctest: +SKIP
+    >>> fit.conf_int()                                              # doctest: +SKIP
     """
+    from vidtrack.run.results import RunFit
+
     plan = plan or prepare_run(run_dir)
     _refuse_early(plan, options)
     scene = plan.scene
     out = plan.out
     if not plan.throws:
-        return fit_throw_folder(scene, scene.folder, out, options, workers, plan=plan)
+        return RunFit.of(fit_throw_folder(scene, scene.folder, out, options, workers,
+                                          plan=plan), out)
     from vidtrack.run.cache import utc_now
     from vidtrack.run.fit_record import dumps, mean_record
     from vidtrack.report.run_page import render_markdown, render_html
@@ -641,7 +676,8 @@ def fit_run(run_dir, options=FitOptions(), *, plan=None, workers=None):
     if all("fit" in r.get("stages_reused", []) for r in records):
         record["stages_reused"] = ["tracks", "fit"]
         record["throws_fitted_at"] = max((r.get("fitted_at") or "") for r in records) or None
-    return record
+    return RunFit.of(record, out, throws={d.name: RunFit.of(r, out / d.name)
+                                          for d, r in zip(plan.throws, records)})
 
 
 def _refuse_early(plan, options):
@@ -696,8 +732,9 @@ def find_runs(paths):
 
 
 def _fit_one(args, workers=None):
+    """One run's record (the dict that fit.json's fields and this call's reuse make)."""
     plan, options = args
-    return fit_run(plan.scene.folder, options, plan=plan, workers=workers)
+    return fit_run(plan.scene.folder, options, plan=plan, workers=workers).record
 
 
 def prepare_runs(run_dirs, options=FitOptions()):
@@ -755,7 +792,8 @@ def fit_runs(run_dirs, options=FitOptions(), *, jobs=1, scheduler=None, progress
     Returns
     -------
     list of dict
-        The fit.json records, in the order of ``run_dirs``.
+        The runs' records (:attr:`vidtrack.run.results.RunFit.record`: fit.json's fields,
+        ``stages_reused`` as this call found them), in the order of ``run_dirs``.
     """
     check_counts(jobs=jobs, bootstrap=options.bootstrap, seed=options.seed)
     if plans is None:

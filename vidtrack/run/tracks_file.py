@@ -34,6 +34,9 @@ gives, per view, the source-clock time that is t = 0.
 >>> f = read_tracks("run42/vidtrack/tracks.h5")                         # doctest: +SKIP
 >>> f.tracks["front"].data, f.world.data                              # doctest: +SKIP
 
+The file does not keep the world track's ``frame`` column: :func:`read_tracks` gives it
+back from the reference view's track (:func:`vidtrack.world.orthogonal.reference_frames`).
+
 Beside it, the same numbers as tables (:func:`write_tables`): ``tracks.csv`` (one row
 per view and frame: ``view``, the view's datasets, and ``flag_names``, e.g.
 ``MERGED|PRE_RELEASE``) and ``world.csv`` (``/world``'s datasets), full float precision, NaN
@@ -313,7 +316,7 @@ def read_tracks(path):
     """
     import h5py
 
-    from vidtrack.world.orthogonal import WorldTrack
+    from vidtrack.world.orthogonal import WorldTrack, reference_frames
     from vidtrack.track.tracker import CAMERA_COLUMNS, TRACK_COLUMNS, Track
 
     path = Path(path)
@@ -372,11 +375,17 @@ def read_tracks(path):
                 if c not in g:
                     raise TrackError(f"{path}: /world has no dataset {c!r}")
                 cols[c] = g[c][()]
+            t0_s = json.loads(_attr(g, "t0_s", path, "/world"))
+            reference = str(_attr(g, "reference", path, "/world"))
+            # the rows are the reference view's frames: their numbers come from its track
+            frames = (reference_frames(tracks[reference].data, t0_s[reference], cols["t_s"])
+                      if reference in tracks and reference in t0_s
+                      else np.full(len(cols["t_s"]), -1, dtype=np.int64))
             world = WorldTrack(
-                data=pd.DataFrame(cols),
-                t0_s=json.loads(_attr(g, "t0_s", path, "/world")),
+                data=pd.DataFrame({"frame": frames, **cols}),
+                t0_s=t0_s,
                 sync=json.loads(_attr(g, "sync", path, "/world")),
-                reference=str(_attr(g, "reference", path, "/world")),
+                reference=reference,
                 x_rms_m=_none_if_nan(_attr(g, "x_rms_m", path, "/world")),
                 x_rms_px=_none_if_nan(_attr(g, "x_rms_px", path, "/world")),
                 x_points=int(_attr(g, "x_points", path, "/world")),

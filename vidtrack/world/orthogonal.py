@@ -24,7 +24,8 @@ X, which is how they are put on one clock and checked against each other:
    rotor's plane edge-on) gets the release carried over from the reference through the
    shared X, and a ``sync_frame`` overrides a detected release. The re-flagged tracks
    are :attr:`WorldTrack.tracks`.
-5. **The world track.** Rows at the reference view's frames from t = 0 on: x from the
+5. **The world track.** Rows at the reference view's frames from t = 0 on (``frame``, the
+   reference view's file frame, and ``t_s``): x from the
    reference view (from the other where the reference has no usable point), y from
    ``front``, z from ``top``; a coordinate of the other view is interpolated between its
    usable frames at t >= 0 no more than 2 of its frames apart. NaN where not measured;
@@ -51,10 +52,11 @@ from vidtrack.world.parallax import correct_parallax
 
 log = logging.getLogger(__name__)
 
-__all__ = ["WorldTrack", "merge_tracks", "view_world", "WORLD_COLUMNS"]
+__all__ = ["WorldTrack", "merge_tracks", "view_world", "reference_frames", "WORLD_COLUMNS"]
 
-#: Columns of :attr:`WorldTrack.data`.
-WORLD_COLUMNS = ("t_s", "x_m", "y_m", "z_m")
+#: Columns of :attr:`WorldTrack.data` (tracks.h5's ``/world`` and world.csv keep all but
+#: ``frame``, which the reference view's track gives back: :func:`reference_frames`).
+WORLD_COLUMNS = ("frame", "t_s", "x_m", "y_m", "z_m")
 #: Fraction of the world track's time span under which a view's own axis is noted as
 #: covering only part of the flight (:func:`_coverage_notes`).
 COVERAGE_NOTE_FRACTION = 0.5
@@ -70,8 +72,10 @@ class WorldTrack:
     Attributes
     ----------
     data : pandas.DataFrame
-        Columns ``t_s`` (s since the release, t = 0), ``x_m``, ``y_m``, ``z_m`` (world
-        frame, m; NaN where not measured).
+        Columns ``frame`` (the reference view's 0-based file frame of the row; -1 for a
+        time at no frame of it, in a ``/world`` edited by hand), ``t_s`` (s since the
+        release, t = 0), ``x_m``, ``y_m``, ``z_m`` (world frame, m; NaN where not
+        measured).
     t0_s : dict
         View -> time in that view's source clock (``Track.data["t_s"]``) that is t = 0.
     sync : dict
@@ -429,6 +433,43 @@ def _flag_before_t0(track, t0, how, step, *, ref, ref_how):
     return replace(track, data=data, **changes)
 
 
+def reference_frames(data, t0_s, t_s):
+    """The reference view's file frame at each world time: the world track's rows.
+
+    Parameters
+    ----------
+    data : pandas.DataFrame
+        The reference view's :attr:`vidtrack.track.tracker.Track.data` (``frame``,
+        ``t_s`` on the source's clock).
+    t0_s : float
+        The time on that clock that is t = 0 (:attr:`WorldTrack.t0_s` of the view).
+    t_s : array_like
+        World times (s since t = 0).
+
+    Returns
+    -------
+    numpy.ndarray
+        int64: the frame at each time, -1 where no frame of the view is at it (within
+        1e-12 s).
+    """
+    t_ref = data["t_s"].to_numpy(dtype=np.float64) - t0_s
+    frames = data["frame"].to_numpy(dtype=np.int64)
+    order = np.argsort(t_ref, kind="stable")
+    t_sorted = t_ref[order]
+    t_s = np.asarray(t_s, dtype=np.float64)
+    out = np.full(t_s.size, -1, dtype=np.int64)
+    if not t_sorted.size:
+        return out
+    # the nearest frame time on either side (a time a rounding below its frame's sorts
+    # after it)
+    right = np.clip(np.searchsorted(t_sorted, t_s), 0, t_sorted.size - 1)
+    left = np.clip(right - 1, 0, t_sorted.size - 1)
+    pos = np.where(np.abs(t_sorted[left] - t_s) < np.abs(t_sorted[right] - t_s), left, right)
+    hit = np.isclose(t_sorted[pos], t_s, rtol=0, atol=1e-12)
+    out[hit] = frames[order[pos[hit]]]
+    return out
+
+
 def _world_rows(tracks, world, t0, ref, names, steps):
     t_ref = tracks[ref].data["t_s"].to_numpy(dtype=np.float64) - t0[ref]
     keep = t_ref >= -1e-9 * max(1.0, abs(t0[ref]))
@@ -455,6 +496,7 @@ def _world_rows(tracks, world, t0, ref, names, steps):
                                    2.5 * steps[v])
             missing = ~np.isfinite(cols[a])
             cols[a][missing] = vals[missing]
-    data = pd.DataFrame({"t_s": t_rows, "x_m": cols["x"], "y_m": cols["y"], "z_m": cols["z"]})
+    data = pd.DataFrame({"frame": reference_frames(tracks[ref].data, t0[ref], t_rows),
+                         "t_s": t_rows, "x_m": cols["x"], "y_m": cols["y"], "z_m": cols["z"]})
     measured = np.isfinite(data[["x_m", "y_m", "z_m"]].to_numpy()).any(axis=1)
     return data[measured].reset_index(drop=True)
