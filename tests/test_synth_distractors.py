@@ -369,7 +369,8 @@ _XFAIL = {}
 #: ... and those the flight tracker (``[track] engine = "flight"``) does not yet pass, with
 #: what was measured (vidtrack bench track --real gives every row).
 _FLIGHT_XFAIL = {
-    "rider_crossing": "front view: frame 193 nearer the rider than the straw",
+    "rider_crossing": "top view: frames 150-164, the rider crossing while the straw "
+                      "turns end on (too short for a bar), 0.53-1.28 px off, unflagged",
     "dark_highlight": "front view: frame 14, just after the release, 0.54 px off along "
                       "the straw: the blade it has left, of its polarity, still touches "
                       "its end in line with it, unflagged",
@@ -414,7 +415,12 @@ def _check_fit_against_truth(fitted, name, engine=None):
                 bad.append((i, round(err, 3)))
             for kind in kinds:
                 du, dv = tab[f"{kind}_u_px"][i], tab[f"{kind}_v_px"][i]
-                if du is not None and math.hypot(u - du, v - dv) < err:
+                # (where the distractor's centre lies within a pixel of the straw's, as
+                # a rider crossing it does for a frame, no point tells which it
+                # follows: the 0.5 px bound above holds it)
+                if (du is not None and math.hypot(u - du, v - dv) < err
+                        and math.hypot(du - tab["u_coverage_px"][i],
+                                       dv - tab["v_coverage_px"][i]) >= 1.0):
                     followed.append((kind, i))
         assert not bad, f"{view}: {len(bad)} unflagged frames > 0.5 px off: {bad[:10]}"
         assert not followed, f"{view}: nearer the distractor than the straw: {followed[:10]}"
