@@ -127,3 +127,12 @@ class Report:
             first = False
         out.append("</div>")
         return "".join(out)
+
+
+class HtmlSummary:
+    """A result whose ``summary()`` is a :class:`Report` (from its ``_report()``): a
+    notebook shows it as HTML tables."""
+
+    def _repr_html_(self):
+        """The ``summary()`` as HTML tables (what a Jupyter notebook shows)."""
+        return self._report().html()

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import special
 
-from fits._text import Report, Table, fmt_num, fmt_pm
+from fits._text import HtmlSummary, Report, Table, fmt_num, fmt_pm
 from fits.errmodel import ErrorModel
 from fits.errors import InputError
 from fits.throw import flight_drag, flight_y
@@ -146,7 +146,7 @@ class AxisFit:
 
 
 @dataclass(frozen=True)
-class ThrowFit:
+class ThrowFit(HtmlSummary):
     """The throw model fitted to a world track."""
 
     model: str
@@ -394,10 +394,6 @@ class ThrowFit:
         str
         """
         return self._report().text()
-
-    def _repr_html_(self):
-        """The :meth:`summary` as HTML tables (what a Jupyter notebook shows)."""
-        return self._report().html()
 
     def to_dict(self):
         return {"model": self.model, "cp_s_per_m": self.cp_s_per_m,

@@ -29,7 +29,7 @@ from fits.rsm._stats import (AnovaRow, anova_frame, f_row, least_squares, ratio,
 from fits.rsm._table import (label_column, numeric_column, require_columns, run_labels,
                              source_of)
 from fits.rsm._terms import estimable_columns
-from fits._text import Report, Table, fmt_f, fmt_num, fmt_p
+from fits._text import HtmlSummary, Report, Table, fmt_f, fmt_num, fmt_p
 from fits.errors import InputError
 
 __all__ = ["OrthogonalFit", "RangeAnalysis", "fit_orthogonal", "parse_interaction"]
@@ -84,7 +84,7 @@ class RangeAnalysis:
 
 
 @dataclass(frozen=True, eq=False)
-class OrthogonalFit:
+class OrthogonalFit(HtmlSummary):
     """Fixed-effects ANOVA of one response of an orthogonal (or any factorial) design.
 
     ``anova`` is keyed by the factor column names, interactions ``a:b``, and ``model``,
@@ -211,10 +211,6 @@ class OrthogonalFit:
         str
         """
         return self._report().text()
-
-    def _repr_html_(self):
-        """The :meth:`summary` as HTML tables (what a Jupyter notebook shows)."""
-        return self._report().html()
 
     def _report(self):
         lines = [f"Response {self.response}: fixed-effects ANOVA, factors categorical"

@@ -14,7 +14,7 @@ import numpy as np
 
 from fits.rsm._stats import CanonicalAnalysis, anova_frame
 from fits.rsm._terms import INTERCEPT, model_matrix
-from fits._text import Report, Table, fmt_f, fmt_num, fmt_p
+from fits._text import HtmlSummary, Report, Table, fmt_f, fmt_num, fmt_p
 from fits.errors import InputError
 
 __all__ = ["EliminationStep", "RsmFit", "TermTest"]
@@ -54,7 +54,7 @@ class EliminationStep:
 
 
 @dataclass(frozen=True, eq=False)
-class RsmFit:
+class RsmFit(HtmlSummary):
     """The response-surface analysis of one response (see :func:`fit_rsm`).
 
     ``anova`` has the rows ``regression``, ``residual``, ``lack_of_fit``,
@@ -352,10 +352,6 @@ class RsmFit:
         str
         """
         return self._report().text()
-
-    def _repr_html_(self):
-        """The :meth:`summary` as HTML tables (what a Jupyter notebook shows)."""
-        return self._report().html()
 
     def _report(self):
         how = ("full model (no elimination)" if self.selection == "full" else

@@ -25,6 +25,8 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
+from fits._text import HtmlSummary
+
 from vidtrack.errors import FitError
 
 __all__ = ["RunFit", "K_NAMES"]
@@ -34,7 +36,7 @@ K_NAMES = ("k1", "k2", "k3", "k4")
 
 
 @dataclass(frozen=True, eq=False, repr=False)
-class RunFit(Mapping):
+class RunFit(HtmlSummary, Mapping):
     """One run's fit: k1..k4 with their errors, the tracks it rests on, fit.json.
 
     Attributes
@@ -233,10 +235,6 @@ class RunFit(Mapping):
         str
         """
         return self._report().text()
-
-    def _repr_html_(self):
-        """The :meth:`summary` as HTML tables (what a Jupyter notebook shows)."""
-        return self._report().html()
 
     def __repr__(self):
         from fits._text import fmt_pm
