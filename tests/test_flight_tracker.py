@@ -25,7 +25,8 @@ def test_settings_refuse_unknown_names_and_bad_values():
     with pytest.raises(VidtrackError, match="track.k_sgima is not a setting"):
         TrackerSettings.from_mapping({"k_sgima": 6})
     for bad in ({"k_sigma": 0}, {"k_sigma": float("nan")}, {"min_area_px": 2.5},
-                {"k_grow": 9.0}, {"shadow_ratio_min": 1.0}, {"max_gap": True}):
+                {"k_grow": 9.0}, {"shadow_ratio_min": 1.0}, {"max_gap": True},
+                {"highlight_frames": 1.5}):
         with pytest.raises(VidtrackError, match="track\\."):
             TrackerSettings(**bad)
     assert TrackerSettings().to_dict()["k_sigma"] == 5.0
@@ -586,7 +587,7 @@ def test_a_dark_ball_with_a_highlight_is_measured_whole():
         dets = detector(frame)
         det = dets[np.argmin(np.hypot(dets["u"] - truth[0], dets["v"] - truth[1]))]
         assert det["mixed"] and np.isnan(det["obj_level"]) and det["contrast"] < 0
-        assert has_highlight([det])
+        assert has_highlight([det], TrackerSettings())
         # (as its chain measures it, a body with a highlight)
         body = det.copy()
         body["obj_level"] = body["body_level"]

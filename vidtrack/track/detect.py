@@ -83,11 +83,6 @@ TEXTURE_SIGMAS = 3.0
 #: share of its summed contrast has one grey level (a highlight holds more).
 ONE_LEVEL_SHARE = 0.05
 
-#: An object of two polarities has a body (and a highlight) when its body's level lies
-#: on one side of the background under at least this share of its pixels; else (a grey
-#: object over a light wall and a dark floor) it is weighed by its bounded difference.
-ONE_SIDE_SHARE = 0.9
-
 #: The per-pixel shadow test looks at the square of this side round each pixel (px).
 SHADOW_WINDOW_PX = 5
 
@@ -309,7 +304,7 @@ class Detector:
         # other polarity is no highlight: a grey object over a light wall and a dark
         # floor is of several tones)
         above = np.bincount(li, obj[li] > bgv, m) / np.bincount(li, minlength=m)
-        one_side = np.maximum(above, 1.0 - above) >= ONE_SIDE_SHARE
+        one_side = np.maximum(above, 1.0 - above) >= s.highlight_one_side
         body_level = np.where(mixed & one_side, obj, np.nan)
         # (the detection is weighed as one of several tones, by its bounded difference,
         # until its chain shows it a body with a highlight)

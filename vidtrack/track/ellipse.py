@@ -20,8 +20,8 @@ object (a blade, a hand, its shadow), which the ellipse does not explain, weighs
 where a centroid weighs every pixel alike.
 
 An object that is no ellipse (a shuttlecock, a bear) is not measured by one: the fit is
-kept only where its misfit over the ellipse's footprint is at most
-:data:`MAX_MISFIT`.
+kept only where its misfit over the ellipse's footprint is at most ``max_misfit``
+(the setting ``model_max_misfit``).
 """
 
 import math
@@ -30,13 +30,7 @@ import numpy as np
 
 from vidtrack.track.rod import F_SCALE, FOOTPRINT_SHARE, LOSS
 
-__all__ = ["fit_ellipse", "MAX_MISFIT"]
-
-#: The ellipse measures the object only where it explains it: the RMS residual over its
-#: footprint (the pixels it covers at least half) at most this share of its coverage
-#: (the synthetic balls: 0.02-0.05; an object of another shape, or something over it,
-#: more).
-MAX_MISFIT = 0.12
+__all__ = ["fit_ellipse"]
 
 #: The fitted centre may lie at most this many of the object's minor spreads (and at
 #: least a pixel) from the start: beyond, the fit ran off (the start is kept).
@@ -117,11 +111,11 @@ def _jacobian(p, x, y, spreads, theta):
     return np.column_stack(cols)
 
 
-def fit_ellipse(x, y, cover, start, spreads, turn=True):
+def fit_ellipse(x, y, cover, start, spreads, turn=True, max_misfit=0.12):
     """The ellipse of the object's spreads fitted to the coverage ``cover`` at pixel
     centres ``(x, y)`` from ``start = (u, v, theta)``; None where the fit fails, runs
     off, its coverage is pinned at its bound, or it does not explain the object (its
-    misfit beyond :data:`MAX_MISFIT`).
+    misfit beyond ``max_misfit``, ``model_max_misfit``).
 
     Parameters
     ----------
@@ -134,6 +128,8 @@ def fit_ellipse(x, y, cover, start, spreads, turn=True):
         not shrink or grow the ellipse: it is a misfit.
     turn : bool
         Whether its angle is fitted (False: a round object's is kept).
+    max_misfit : float
+        The largest misfit (a share of its coverage) at which it explains the object.
 
     Returns
     -------
@@ -173,7 +169,7 @@ def fit_ellipse(x, y, cover, start, spreads, turn=True):
     if not foot.any():
         return None
     misfit = float(np.sqrt(np.mean((model - cover)[foot] ** 2))) / a
-    if misfit > MAX_MISFIT:
+    if misfit > max_misfit:
         return None
     th = res.x[2] if turn else th0
     return u, v, np.array([u, v, th, _axes(spreads[0], s), _axes(spreads[1], s), a, s]), misfit

@@ -111,7 +111,8 @@ def _measure(source, held, detector, detections, chain, settings, cancel):
     residual = np.full(n, np.nan)
     bars = np.full((n, 4), np.nan)
     wanted = set(int(i) for i in chain.frames)
-    highlight = has_highlight([detections[i][chain.pick[i]] for i in chain.frames])
+    highlight = has_highlight([detections[i][chain.pick[i]] for i in chain.frames],
+                              settings)
     frames = held if held is not None else _frames(source, cancel)
     for i, frame in enumerate(frames):
         if i not in wanted:

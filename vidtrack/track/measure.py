@@ -45,18 +45,6 @@ NEAR_KERNELS = 2.0
 ROD_ASPECT = 3.0
 
 
-#: An object is a body with a highlight where at least this share of its chain's frames
-#: show a body of one level and pixels of the other polarity (the synthetic straws and
-#: balls with a highlight: 98-100 %; the diabolo's white and grey cup 19 %, the bears
-#: 21-47 %: their tones change as they turn, and one model for all their frames keeps
-#: their points consistent).
-HIGHLIGHT_FRAMES = 0.5
-
-#: A mixed object's core: the pixels its body covers at least this share of (a dimmer
-#: object of the same polarity beside it, a rider of half its contrast, is not in it).
-CORE = 0.75
-
-
 class Shape:
     """The object's shape: spreads (px, standard deviations) along its major and minor
     axes, the robust medians of its chain's detections; for a rod, the profile of the
@@ -80,15 +68,15 @@ def chain_shape(chain):
     return Shape(np.nanmedian(chain.major[idx]), np.nanmedian(chain.minor[idx]))
 
 
-def has_highlight(dets):
+def has_highlight(dets, settings):
     """Whether a chain's object is a body with a highlight: of two polarities, its body's
-    level on one side of the background, in at least :data:`HIGHLIGHT_FRAMES` of its
+    level on one side of the background, in at least ``highlight_frames`` of its
     frames. Else its frames of two polarities are an object of several tones (a white
     and grey cup, a toy), weighed by their bounded difference."""
     if not dets:
         return False
     body = [bool(d["mixed"]) and np.isfinite(d["body_level"]) for d in dets]
-    return float(np.mean(body)) >= HIGHLIGHT_FRAMES
+    return float(np.mean(body)) >= settings.highlight_frames
 
 
 def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=None):
@@ -163,7 +151,7 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     if mixed and np.isfinite(obj):
         # (a highlight inside the object is the object's, and where its blur cancels
         # the body's contrast too)
-        inner = _highlight_interior(d, bg, grow, obj, ys, xs, w)
+        inner = _highlight_interior(d, bg, grow, obj, ys, xs, w, settings.highlight_core)
         if inner is not None:
             w = np.where(np.isfinite(inner[ys, xs]), inner[ys, xs], w)
     if shade is not None:
@@ -221,10 +209,12 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
         if rod:
             fit = fit_rod(px, py, pc, (cu, cv, theta, np.sqrt(3.0) * shape.major,
                                        np.sqrt(3.0) * max(shape.minor, 0.3)),
-                          profile=shape.profile, measured=measured)
+                          profile=shape.profile, measured=measured,
+                          cap_px=settings.bar_cap_px)
         else:
             fit = fit_ellipse(px, py, pc, (cu, cv, theta), (shape.major, shape.minor),
-                              turn=shape.major > ELONGATED * shape.minor)
+                              turn=shape.major > ELONGATED * shape.minor,
+                              max_misfit=settings.model_max_misfit)
         if fit is not None:
             cu, cv, fitted, misfit = fit
             if rod:
@@ -237,20 +227,20 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     return cu, cv, sw, muu, mvv, muv, residual, bar
 
 
-def _highlight_interior(d, bg, grow, obj, ys, xs, w):
+def _highlight_interior(d, bg, grow, obj, ys, xs, w, core):
     """A mixed object's weights where its body's coverage does not tell them, over
     the crop (NaN elsewhere). Its highlight (its pixels of the other polarity than its
     body beyond ``grow``) and the pixels beside it (3 x 3: where the highlight's blur
     cancels the body's contrast) cover fully inside the convex hull of its core (the
-    pixels its body covers at least :data:`CORE`: a dimmer object touching it is not
-    in it); a highlight's pixel outside it is read against the highlight's own level
+    pixels its body covers at least ``core``, ``highlight_core``: a dimmer object
+    touching it is not in it); a highlight's pixel outside it is read against the highlight's own level
     (the 90th percentile of its ``|d|``). None where there is no highlight or no
     core."""
     # (of the other polarity than the body against the background under it: a grey
     # object over a wall and a floor is of one level, darker than the one and lighter
     # than the other)
     hl = np.sign(obj - bg[ys, xs]) * d[ys, xs] < -grow[ys, xs]
-    body = (w >= CORE) & ~hl
+    body = (w >= core) & ~hl
     if not hl.any() or np.count_nonzero(body) < 3:
         return None
     inside = np.zeros(d.shape, np.uint8)

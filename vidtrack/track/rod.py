@@ -45,12 +45,6 @@ _BLUR_ALONG = (0.2, 8.0)
 #: beside it would count).
 FOOTPRINT_SHARE = 0.5
 
-#: The misfit is also taken over the caps beyond the bar's ends, this far along (px)
-#: and as wide as the bar: something in line with an end (a blade it has left,
-#: a second straw across it) moves the end, and the centre along, where something
-#: beside the bar does not.
-CAP_PX = 2.0
-
 #: The fitted centre may lie at most this many half lengths from the start: beyond, the
 #: fit ran off (the start is kept).
 MAX_SHIFT = 0.5
@@ -141,20 +135,22 @@ def _rms(r):
     return float(np.sqrt(np.mean(r * r))) if r.size else 0.0
 
 
-def fit_rod(x, y, cover, start, profile=None, measured=None):
+def fit_rod(x, y, cover, start, profile=None, measured=None, cap_px=2.0):
     """The bar fitted to the coverage ``cover`` at pixel centres ``(x, y)``, from
     ``start = (u, v, theta, half_length, half_width)`` and, where given, ``profile``
     (the half width, coverage and blurs across and along of the bar fitted to the frame
     before: a start nearer the answer); None when the rod is too short, the fit fails or
     runs off. ``measured`` (bool per pixel, default all): the pixels whose coverage was
     measured, not filled in (a highlight's): only they count towards the misfit.
+    ``cap_px`` (``bar_cap_px``): how far beyond the bar's ends its misfit is also taken
+    (something in line with an end moves it, and the centre along).
 
     Returns
     -------
     (float, float, numpy.ndarray, float) or None
         The centre (u, v), the fitted parameters (u, v, theta, h, w, a, s, s2) and the
         misfit: the RMS residual over the bar's footprint (the pixels it covers at least
-        :data:`FOOTPRINT_SHARE` of its coverage ``a``, and the caps :data:`CAP_PX`
+        :data:`FOOTPRINT_SHARE` of its coverage ``a``, and the caps ``cap_px``
         beyond its ends) over ``a``, small for the rod alone, large where something
         overlaps it or lies in line with an end (beside it, outside the footprint, it
         does not count).
@@ -188,7 +184,7 @@ def fit_rod(x, y, cover, start, profile=None, measured=None):
     _, _, q, r, *_ = cached.parts
     h, w = res.x[3], res.x[4]
     foot = (resid + cover) >= FOOTPRINT_SHARE * res.x[5]
-    caps = (np.abs(r) <= w) & (np.abs(q) > h) & (np.abs(q) <= h + CAP_PX)
+    caps = (np.abs(r) <= w) & (np.abs(q) > h) & (np.abs(q) <= h + cap_px)
     if measured is not None:
         foot &= measured
         caps &= measured

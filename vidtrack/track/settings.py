@@ -132,6 +132,33 @@ class TrackerSettings:
         hides the blade under it), while drag falling off as a light object slows down,
         or a shuttlecock's after a racket's hit, leaves a braking before the knot (near
         180).
+    highlight_one_side : float
+        A detection of two polarities has a body (the polarity most of its pixels beyond
+        ``k_grow`` show) whose level is kept where it lies on one side of the background
+        under at least this share of its pixels; else (a grey object over a light wall
+        and a dark floor) it is of several tones.
+    highlight_frames : float
+        A chain's object is a body with a highlight where at least this share of its
+        frames show such a body (measured: the synthetic dark straws and balls with a
+        highlight 0.98-1, the bears 0.47 and 0.21, the diabolo's white and grey cup 0.19,
+        the launcher 0.08): its pixels are read against the body's level and its
+        highlight covers. Else its frames of two polarities are all weighed by their
+        bounded difference, alike (one model for all its frames keeps its points
+        consistent).
+    highlight_core : float
+        A body's core is the pixels it covers at least this share of (a dimmer object of
+        its polarity beside it, a rider of half its contrast, is not in it): its
+        highlight, and the pixels beside it where the two cancel, cover fully inside the
+        core's convex hull.
+    model_max_misfit : float
+        A compact object is measured by the ellipse fitted to it only where the ellipse
+        explains it: its RMS residual over its footprint at most this share of its
+        coverage (the synthetic balls 0.02-0.05; an object of another shape, or one a
+        third hidden, more).
+    bar_cap_px : float
+        A rod's misfit is also taken over the caps beyond its bar's ends, this far along
+        (px) and as wide as the bar: something in line with an end (the blade it has
+        left) moves the end, and the centre along, where something beside it does not.
     """
 
     k_sigma: float = 5.0
@@ -164,6 +191,11 @@ class TrackerSettings:
     release_significance: float = 25.0
     release_ratio: float = 2.0
     release_push_deg: float = 120.0
+    highlight_one_side: float = 0.9
+    highlight_frames: float = 0.5
+    highlight_core: float = 0.75
+    model_max_misfit: float = 0.12
+    bar_cap_px: float = 2.0
 
     def __post_init__(self):
         for f in fields(self):
@@ -181,6 +213,10 @@ class TrackerSettings:
         if self.release_push_deg > 180.0:
             raise VidtrackError(f"track.release_push_deg must be at most 180 (degrees), got "
                                 f"{self.release_push_deg:g}")
+        for name in ("highlight_one_side", "highlight_frames", "highlight_core"):
+            if getattr(self, name) > 1.0:
+                raise VidtrackError(f"track.{name} must be at most 1 (a share), got "
+                                    f"{getattr(self, name):g}")
         if self.shadow_ratio_min >= 1.0 or self.shadow_texture_min >= 1.0:
             raise VidtrackError("track.shadow_ratio_min and track.shadow_texture_min must be "
                                 "below 1")
