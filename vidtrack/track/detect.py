@@ -290,12 +290,11 @@ class Detector:
         # the object's coverage gives the shadow no weight)
         ratio_all = fv / np.maximum(bgv, 1.0)
         dimmed = (d < 0) & (ratio_all >= s.shadow_ratio_min) & (sign[li] > 0)
-        other = np.bincount(li, np.where((sign[li] * d < -self.grow_level[ys, xs])
-                                         & ~dimmed, a, 0.0), m)
+        gl = self.grow_level[ys, xs]
+        other = np.bincount(li, np.where((sign[li] * d < -gl) & ~dimmed, a, 0.0), m)
         one_level = other <= ONE_LEVEL_SHARE * np.bincount(li, a, m)
         # (an object of two polarities: its body is the polarity most of its pixels
         # beyond k_grow show, whatever the other's contrast; the other is a highlight)
-        gl = self.grow_level[ys, xs]
         more_bright = np.bincount(li, d > gl, m) >= np.bincount(li, d < -gl, m)
         body = np.where(one_level, sign, np.where(more_bright, 1.0, -1.0))
         obj = body * _percentile_by_label(body[li] * fv, li, m, 0.9)
