@@ -449,11 +449,31 @@ def sample_background(source, *, samples=25, first=0):
     if n < 3:
         raise TrackError(f"{getattr(source, 'path', 'source')}: the background needs at least "
                          f"3 frames, the footage has {n}")
+    idx, frames, pairs = gather_samples(lambda i: source[i], n, samples=samples, first=first)
+    return estimate_background(frames, pairs=pairs, frames=idx)
+
+
+def gather_samples(get, n_frames, *, samples=25, first=0):
+    """The frames a background is taken from: ``samples`` spread over frames
+    ``first..n_frames - 1``, and pairs of consecutive frames for the noise (every other
+    sample with the frame after it).
+
+    Parameters
+    ----------
+    get : callable
+        ``get(i)`` is source index ``i``'s frame.
+    n_frames : int
+        Frames in the source (at least 3).
+
+    Returns
+    -------
+    (numpy.ndarray, list, list)
+        The samples' source indices, the samples, the pairs.
+    """
+    n = int(n_frames)
     first = int(np.clip(first, 0, n - 3))
     idx = first + sample_indices(n - first, samples)
-    frames = [source[int(i)] for i in idx]
-    pairs = []
-    for i, f in zip(idx[::2], frames[::2]):
-        j = int(i) + 1 if i + 1 < n else int(i) - 1
-        pairs.append((f, source[j]))
-    return estimate_background(frames, pairs=pairs, frames=idx)
+    frames = [get(int(i)) for i in idx]
+    pairs = [(f, get(int(i) + 1 if i + 1 < n else int(i) - 1))
+             for i, f in zip(idx[::2], frames[::2])]
+    return idx, frames, pairs

@@ -28,13 +28,14 @@ import numpy as np
 
 from vidtrack.errors import TrackError
 from vidtrack.track._flags import BLADE
-from vidtrack.track.background import estimate_background, sample_background, sample_indices
+from vidtrack.track.background import estimate_background, gather_samples
 from vidtrack.track.choose import choose
 from vidtrack.track.detect import Detector
 from vidtrack.track.flag import REASON_COLUMN, judge, reason_codes
 from vidtrack.track.link import link
 from vidtrack.track.measure import chain_shape, has_highlight, measure_frame
 from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
+from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
 
 __all__ = ["track_flight"]
 
@@ -89,17 +90,40 @@ def _frames(source, cancel):
         th.join(timeout=5.0)
 
 
-def _held_background(held, samples):
-    """The background of footage held whole: samples spread over it, pairs beside them."""
-    if len(held) < 3:
-        raise TrackError(f"the background needs at least 3 frames, the footage has "
-                         f"{len(held)}")
-    idx = sample_indices(len(held), samples)
-    pairs = [(held[i], held[i + 1 if i + 1 < len(held) else i - 1]) for i in idx[::2]]
-    return estimate_background([held[i] for i in idx], pairs=pairs, frames=idx)
+def _background(source, held, settings):
+    """The background, and a :class:`~vidtrack.track.steady.Steadier` (None where the
+    camera is steady) with its note. ``held`` (footage held whole, or None) is moved
+    back in place where the camera shakes."""
+    n = len(held) if held is not None else len(source)
+    if n < 3:
+        raise TrackError(f"the background needs at least 3 frames, the footage has {n}")
+    get = held.__getitem__ if held is not None else source.__getitem__
+    samples = settings.background_samples
+    idx, frames, pairs = gather_samples(get, n, samples=samples)
+    background = estimate_background(frames, pairs=pairs, frames=idx)
+    steady, note = Steadier.look(frames, idx, background.image,
+                                 agree_share=settings.camera_agree_share)
+    if steady is None:
+        return background, None, note
+    if held is not None:
+        for i, frame in enumerate(held):
+            held[i] = steady.warp(i, frame)
+    else:
+        get = lambda i: steady.warp(i, source[i])  # noqa: E731
+    idx, frames, pairs = gather_samples(get, n, samples=samples)
+    return estimate_background(frames, pairs=pairs, frames=idx), steady, note
 
 
-def _measure(source, held, detector, detections, chain, settings, cancel):
+def _steadied(frames, steady):
+    """``frames`` moved back by ``steady`` (unchanged where it is None)."""
+    if steady is None:
+        yield from frames
+        return
+    for i, frame in enumerate(frames):
+        yield steady.warp(i, frame)
+
+
+def _measure(source, held, detector, detections, chain, settings, cancel, steady=None):
     """Each chain frame measured by the object's shape (:mod:`vidtrack.track.measure`):
     the chain's positions are replaced; returns per frame position (weight, muu, mvv,
     muv), the residual share and, for a rod, its bar (half length, half width, coverage,
@@ -113,7 +137,7 @@ def _measure(source, held, detector, detections, chain, settings, cancel):
     wanted = set(int(i) for i in chain.frames)
     highlight = has_highlight([detections[i][chain.pick[i]] for i in chain.frames],
                               settings)
-    frames = held if held is not None else _frames(source, cancel)
+    frames = held if held is not None else _steadied(_frames(source, cancel), steady)
     for i, frame in enumerate(frames):
         if i not in wanted:
             continue
@@ -172,20 +196,19 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
         As :func:`vidtrack.track.tracker.track_parts` returns.
     """
     settings = settings or TrackerSettings()
-    held = None
+    held = steady = None
+    camera_note = None
     if background is None:
         frame_bytes = int(np.prod(source.shape)) * np.dtype(source.dtype).itemsize
         if len(source) * frame_bytes <= HOLD_BYTES:
             held = list(_frames(source, cancel))
-            background = _held_background(held, settings.background_samples)
-        else:
-            background = sample_background(source, samples=settings.background_samples)
+        background, steady, camera_note = _background(source, held, settings)
     if tuple(background.shape) != tuple(source.shape):
         raise TrackError(f"{view or 'view'}: the background is {background.shape[1]}x"
                          f"{background.shape[0]} px, the footage {source.shape[1]}x"
                          f"{source.shape[0]}")
     detector = Detector(background, settings)
-    frames = held if held is not None else _frames(source, cancel)
+    frames = held if held is not None else _steadied(_frames(source, cancel), steady)
     detections = [detector(frame) for frame in frames]
     del frames
     n = len(detections)
@@ -202,7 +225,7 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     except TrackError as err:
         raise TrackError(f"{name}: {err}") from None
     moments, residual, bars = _measure(source, held, detector, detections, chain, settings,
-                                       cancel)
+                                       cancel, steady)
     del held
     flags, release, scatter, notes, reasons = judge(chain, detections, n, settings,
                                            find_release=view != "top", residual=residual,
@@ -234,6 +257,14 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
              f"object's chain, {int(np.count_nonzero(flags == 0))} unflagged",
              f"background: median of {background.n_samples} frames spread over the "
              f"footage"] + notes
+    if steady is not None:
+        notes[2:2] = [camera_note, steady.summary()]
+        shifts = np.full((n, 2), np.nan)
+        for i, sh in steady.shifts.items():
+            if 0 <= i < n:
+                shifts[i] = sh
+    elif camera_note and camera_note.startswith("camera: the scene moves"):
+        notes.insert(2, camera_note)
     if view == "top":
         rel_note = _TOP_NOTE
     elif release is None:
@@ -245,6 +276,8 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     columns = {"frame": fnums, "t_s": times, "u_px": u, "v_px": v, "area_px": area,
                "angle_rad": angle, "length_px": length, "flags": flags.astype(np.int32),
                REASON_COLUMN: reason_codes(reasons, n)}
+    if steady is not None:
+        columns.update(zip(CAMERA_COLUMNS, shifts.T))
     return dict(columns=columns, view=view,
                 release_frame=None if rel_pos is None else int(fnums[rel_pos]),
                 release_note=rel_note,

@@ -10,10 +10,13 @@ and k4 10 % off on the sample run, with every frame tracked within 0.07 px).
 each lies from their median: up to 400 corners of the median (OpenCV's
 ``goodFeaturesToTrack``, spread over 16 cells) are followed into each frame (pyramidal
 Lucas-Kanade, ``calcOpticalFlowPyrLK``); each cell votes with its corners' median
-shift, and the frame's shift is the mean of the corners' shifts that agree with the
-cells' median within half a pixel, where at least half the cells agree (a person, a
-hand, the object or a turning machine part hold a few cells: a textured person swaying
-at the side of the frame, with most of the corners, is not a shake). Below
+shift, and the frame's shift is the mean of the corners' shifts that agree within half
+a pixel with the shift the most cells agree with, where those are at least a share of
+the cells voting (the flight tracker's ``camera_agree_share``; the rules tracker takes
+the cells' median, half of them agreeing) and outnumber any other group agreeing among
+itself (a person, a hand,
+the object or a turning machine part hold a few cells: a textured person swaying at the
+side of the frame, with most of the corners, is not a shake). Below
 :data:`SHAKE_PX` (RMS) the camera is steady and nothing is done: no cost beyond that
 look. Above it, the samples are moved back and their median taken again (sharp, where
 the shaken one blurs the texture), and every frame is measured against it and moved
@@ -22,7 +25,7 @@ against the scene as the background shows it, up to one constant (where the came
 was on average over the sampled frames). Translation only: a camera that turns about
 its axis, or zooms, is not followed.
 
-Internal to the tracker (:mod:`vidtrack.track._pass`).
+Internal to the trackers (:mod:`vidtrack.track._pass`, :mod:`vidtrack.track.flight`).
 """
 
 import math
@@ -79,8 +82,9 @@ class _Corners:
     frames; each cell votes with its corners' median shift (a person or a machine part,
     however rich in corners, holds a few cells, not the frame)."""
 
-    def __init__(self, ref, lo, hi):
+    def __init__(self, ref, lo, hi, agree_share=None):
         self.lo, self.hi = lo, hi
+        self.agree_share = agree_share
         self.ref8 = _eight(ref, lo, hi)
         rows, cols = ref.shape
         eig = cv2.cornerMinEigenVal(self.ref8, 3)
@@ -108,8 +112,8 @@ class _Corners:
 
     def shift(self, frame, init=(0.0, 0.0)):
         """Where ``frame``'s content lies against the reference (px), or None: the median
-        of the cells' shifts, where at least half the cells that vote (and 2) agree
-        with it within half a pixel; the mean of their corners that agree too."""
+        the most cells agree with within half a pixel (see :meth:`Steadier.look`'s
+        ``agree_share``); the mean of their corners that agree too."""
         if self.pts is None or len(self.pts) < AGREE_MIN:
             return None
         img = _eight(frame, self.lo, self.hi)
@@ -124,10 +128,27 @@ class _Corners:
         if len(votes) < 2:
             return None
         v = np.array(list(votes.values()))
-        med = np.median(v, axis=0)
-        agree_cells = [c for c, m in votes.items() if np.all(np.abs(m - med) <= 0.5)]
-        if len(agree_cells) < max(2, 0.5 * len(votes)):
-            return None
+        if self.agree_share is None:
+            # (the rules tracker's: the cells' median, half of them agreeing with it)
+            med = np.median(v, axis=0)
+            agree_cells = [c for c, m in votes.items() if np.all(np.abs(m - med) <= 0.5)]
+            if len(agree_cells) < max(2, 0.5 * len(votes)):
+                return None
+        else:
+            # the shift the most cells agree with (within half a pixel), the cells'
+            # median deciding between equals; it must hold agree_share of the votes and
+            # more cells than any group of the others that agree among themselves
+            near = np.all(np.abs(v[:, None] - v[None]) <= 0.5, axis=2)
+            support = near.sum(axis=1)
+            off = np.abs(v - np.median(v, axis=0)).sum(axis=1)
+            best = min(range(len(v)), key=lambda j: (-support[j], off[j]))
+            med = np.median(v[near[best]], axis=0)
+            inside = np.all(np.abs(v - med) <= 0.5, axis=1)
+            rival = near[~inside][:, ~inside].sum(axis=1).max(initial=0)
+            agree_cells = [c for c, ok in zip(votes, inside) if ok]
+            if (len(agree_cells) < max(2, self.agree_share * len(votes))
+                    or rival >= len(agree_cells)):
+                return None
         agree = np.isin(cells, agree_cells) & np.all(np.abs(d - med) <= 0.5, axis=1)
         if np.count_nonzero(agree) < AGREE_MIN:
             return None
@@ -158,7 +179,7 @@ class Steadier:
         self._last = (0.0, 0.0)
 
     @classmethod
-    def look(cls, samples, frames, median=None):
+    def look(cls, samples, frames, median=None, agree_share=None):
         """Measure the shake on the background's sampled frames.
 
         Parameters
@@ -169,6 +190,11 @@ class Steadier:
             Their source indices.
         median : numpy.ndarray, optional
             Their per-pixel median, where it is known (the background's image).
+        agree_share : float, optional
+            A frame's shift is the one the most cells agree with, where they are at
+            least this share of the cells voting and outnumber any other group that
+            agrees among itself (the flight tracker's ``camera_agree_share``). None:
+            the cells' median, where at least half of them agree with it.
 
         Returns
         -------
@@ -189,7 +215,7 @@ class Steadier:
                                                    interpolation=cv2.INTER_AREA)
 
         few = np.unique(np.linspace(0, len(samples) - 1, _LOOK).round().astype(int))
-        first = _Corners(small(ref), lo, hi)
+        first = _Corners(small(ref), lo, hi, agree_share)
         sh = [first.shift(small(samples[k])) for k in few]
         sh = np.array([g for g in sh if g is not None]) / f
         if len(sh) < 3:
@@ -204,14 +230,14 @@ class Steadier:
             return None, (f"camera: the scene moves as a whole by up to {far:.3g} px over "
                           f"the sampled frames, more than a shake ({SHAKE_MAX_PX:g} px): a "
                           f"pan, a zoom or a moving ground is not steadied")
-        corners = _Corners(ref, lo, hi)
+        corners = _Corners(ref, lo, hi, agree_share)
         got = [corners.shift(s) for s in samples]
         sh = np.array([g for g in got if g is not None])
         rms = float(np.sqrt(np.mean(np.sum((sh - sh.mean(axis=0)) ** 2, axis=1))))
         # moved back, their median is sharp where the shaken one blurs the texture
         ref = np.median(np.stack([_back(np.asarray(s, np.float32), g)
                                   for s, g in zip(samples, got) if g is not None]), axis=0)
-        steady = cls(_Corners(ref.astype(np.float32), lo, hi), {})
+        steady = cls(_Corners(ref.astype(np.float32), lo, hi, agree_share), {})
         for i, s, g in zip(frames, samples, got):
             steady.shift(int(i), s, init=(0.0, 0.0) if g is None else g)
         return steady, (f"camera: shakes by {rms:.2g} px RMS over the sampled frames: every "
@@ -222,12 +248,16 @@ class Steadier:
         """Where frame ``i``'s content lies against the reference (px), measured once."""
         if i in self.shifts:
             return self.shifts[i]
-        got = self.corners.shift(frame, self._last if init is None else init)
+        # started from the frame beside it where that is measured (frames may be
+        # measured out of order: a pair for the background's noise), else the last
+        guess = init if init is not None else self.shifts.get(
+            i - 1, self.shifts.get(i + 1, self._last))
+        got = self.corners.shift(frame, guess)
         if got is None and init is None:
             got = self.corners.shift(frame)
         if got is None:
             self.failed += 1
-            got = self._last
+            got = guess
         self.shifts[i] = self._last = got
         return got
 
