@@ -26,6 +26,7 @@ from vidtrack.track._select import Acquirer, Tracklet
 from vidtrack.track._step import HIDDEN_PX, follow, part_hidden
 from vidtrack.track._target import ambiguity_message, target_blob, target_index
 from vidtrack.track.background import Background, estimate_background, sample_indices
+from vidtrack.track.flight import blade_mask
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
 
 #: Memory the start-of-footage buffer for the background may take (bytes).
@@ -65,27 +66,6 @@ _TOP_RELEASE_NOTE = ("not looked for in the top view: it sees the rotor's plane 
 
 class Cancelled(Exception):
     """A tracking pass stopped by its ``cancel`` event."""
-
-
-def _blade_mask(blade_region, shape):
-    if blade_region is None:
-        return None
-    if isinstance(blade_region, np.ndarray) and blade_region.ndim == 2:
-        if blade_region.shape != tuple(shape):
-            raise TrackError(f"blade_region mask is {blade_region.shape}, the frames are "
-                             f"{tuple(shape)}")
-        return blade_region.astype(bool)
-    try:
-        u, v, r = (float(x) for x in blade_region)
-    except (TypeError, ValueError):
-        raise TrackError("blade_region must be a boolean mask of the frame's shape or a "
-                         f"circle (u_px, v_px, radius_px), got {blade_region!r}") from None
-    if not (np.isfinite(u) and np.isfinite(v) and np.isfinite(r) and r > 0):
-        raise TrackError(f"blade_region circle needs finite u, v and radius > 0, got "
-                         f"{blade_region!r}")
-    rows, cols = shape
-    yy, xx = np.ogrid[:rows, :cols]
-    return (xx - u) ** 2 + (yy - v) ** 2 <= r * r
 
 
 def _name(view, source):
@@ -184,7 +164,7 @@ class Pass:
         if not dt > 0:
             raise TrackError(f"{name}: the frame times do not increase")
         self.tau = (times - times[0]) / dt
-        self.blade = _blade_mask(blade_region, shape)
+        self.blade = blade_mask(blade_region, shape)
         self.notes = []
 
         self.frames = iter(source)

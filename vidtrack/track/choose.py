@@ -386,9 +386,9 @@ def _target_seed(detections, target, frame_numbers, what):
     dist = np.hypot(dets["u"] - tu, dets["v"] - tv)
     j = int(np.argmin(dist / np.maximum(size, 1.0)))
     if dist[j] > max(3.0 * size[j], 10.0):
-        raise TrackError(f"target: nothing moving at ({tu:.0f}, {tv:.0f}) px in frame {frame} "
-                         f"(the nearest detection is {dist[j]:.0f} px away); give a pixel on "
-                         f"{what}")
+        raise TrackError(f"target: nothing moves at the target ({tu:.0f}, {tv:.0f}) px in "
+                         f"frame {frame} (the nearest detection is {dist[j]:.0f} px away); "
+                         f"give a pixel on {what}")
     return [(fi, j)]
 
 

@@ -41,7 +41,7 @@ import warnings
 
 import numpy as np
 
-from vidtrack.track._flags import APPEARANCE, BORDER, LOST, OUTLIER, PRE_RELEASE
+from vidtrack.track._flags import APPEARANCE, BORDER, LOST, OUTLIER, PRE_RELEASE, PREDICTED
 from vidtrack.track.choose import MAJORITY
 from vidtrack.track.measure import residual_outliers
 from vidtrack.track.path import local_quadratic, robust_scale
@@ -68,7 +68,10 @@ REASONS = {"lost": "no detection of the object in this frame (LOST)",
                      "stroke (APPEARANCE)",
            "shadow": "shadow-like in a chain that is not (APPEARANCE)",
            "off-path": "off the local path of its neighbours (OUTLIER)",
-           "blade": "where the blade sweeps (BLADE)"}
+           "blade": "where the blade sweeps (BLADE)",
+           "predicted": "no detection inside the object's chain (hidden, or too faint): "
+                        "its position is the path's through the clean frames either side "
+                        "(PREDICTED)"}
 
 
 def _path_outliers(idx, uv, settings, start):
@@ -234,6 +237,32 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     reasons["lost"] = (flags & LOST).astype(bool)
     reasons["border"] = (flags & BORDER).astype(bool)
     return flags, release, scatter, notes, reasons
+
+
+def bridge_gaps(u, v, flags, reasons, chain, settings):
+    """Frames inside the chain without a detection (LOST): their position predicted by a
+    quadratic in time through up to ``path_window`` clean frames either side (at least
+    2 each side), flagged PREDICTED instead. ``u``, ``v``, ``flags`` and ``reasons``
+    are changed in place; returns how many frames were bridged."""
+    idx = chain.frames
+    clean = idx[flags[idx] == 0]
+    done = 0
+    for g in range(int(idx[0]) + 1, int(idx[-1])):
+        if chain.pick[g] >= 0 or not flags[g] & LOST:
+            continue
+        before = clean[clean < g][-settings.path_window:]
+        after = clean[clean > g][:settings.path_window]
+        if before.size < 2 or after.size < 2:
+            continue
+        t = np.concatenate([before, after]).astype(float) - g
+        cu = np.polyfit(t, u[np.concatenate([before, after])], 2)
+        cv = np.polyfit(t, v[np.concatenate([before, after])], 2)
+        u[g], v[g] = cu[-1], cv[-1]
+        flags[g] = PREDICTED
+        reasons["lost"][g] = False
+        reasons.setdefault("predicted", np.zeros(flags.size, bool))[g] = True
+        done += 1
+    return done
 
 
 def reason_codes(reasons, n):

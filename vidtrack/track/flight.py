@@ -31,13 +31,13 @@ from vidtrack.track._flags import BLADE
 from vidtrack.track.background import estimate_background, gather_samples
 from vidtrack.track.choose import choose
 from vidtrack.track.detect import Detector
-from vidtrack.track.flag import REASON_COLUMN, judge, reason_codes
+from vidtrack.track.flag import REASON_COLUMN, bridge_gaps, judge, reason_codes
 from vidtrack.track.link import link
 from vidtrack.track.measure import chain_shape, has_highlight, measure_frame
 from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
 
-__all__ = ["track_flight"]
+__all__ = ["track_flight", "blade_mask"]
 
 #: Frames decoded ahead of the detection (a bounded queue: memory flat in length).
 _AHEAD = 8
@@ -158,14 +158,27 @@ def _measure(source, held, detector, detections, chain, settings, cancel, steady
     return moments, residual, bars
 
 
-def _blade_mask(blade_region, shape):
+def blade_mask(blade_region, shape):
+    """Where the blade sweeps, as a boolean mask of the frame's ``shape``: from a mask of
+    that shape or a circle ``(u_px, v_px, radius_px)``; None for None."""
     if blade_region is None:
         return None
-    if isinstance(blade_region, np.ndarray):
+    if isinstance(blade_region, np.ndarray) and blade_region.ndim == 2:
+        if blade_region.shape != tuple(shape):
+            raise TrackError(f"blade_region mask is {blade_region.shape}, the frames are "
+                             f"{tuple(shape)}")
         return blade_region.astype(bool)
-    cu, cv, r = blade_region
-    vv, uu = np.mgrid[0:shape[0], 0:shape[1]]
-    return (uu - cu) ** 2 + (vv - cv) ** 2 <= r * r
+    try:
+        u, v, r = (float(x) for x in blade_region)
+    except (TypeError, ValueError):
+        raise TrackError("blade_region must be a boolean mask of the frame's shape or a "
+                         f"circle (u_px, v_px, radius_px), got {blade_region!r}") from None
+    if not (np.isfinite(u) and np.isfinite(v) and np.isfinite(r) and r > 0):
+        raise TrackError(f"blade_region circle needs finite u, v and radius > 0, got "
+                         f"{blade_region!r}")
+    rows, cols = shape
+    yy, xx = np.ogrid[:rows, :cols]
+    return (xx - u) ** 2 + (yy - v) ** 2 <= r * r
 
 
 def track_flight(source, *, settings=None, background=None, view=None, target=None,
@@ -196,6 +209,7 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
         As :func:`vidtrack.track.tracker.track_parts` returns.
     """
     settings = settings or TrackerSettings()
+    mask = blade_mask(blade_region, tuple(source.shape))
     held = steady = None
     camera_note = None
     if background is None:
@@ -203,8 +217,9 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
         if len(source) * frame_bytes <= HOLD_BYTES:
             held = list(_frames(source, cancel))
         background, steady, camera_note = _background(source, held, settings)
+    name = f"view {view}" if view else "the view"
     if tuple(background.shape) != tuple(source.shape):
-        raise TrackError(f"{view or 'view'}: the background is {background.shape[1]}x"
+        raise TrackError(f"{name}: the background is {background.shape[1]}x"
                          f"{background.shape[0]} px, the footage {source.shape[1]}x"
                          f"{source.shape[0]}")
     detector = Detector(background, settings)
@@ -213,7 +228,6 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     del frames
     n = len(detections)
     fnums = np.asarray(source.frame_numbers)[:n]
-    name = view or "view"
     if n == 0 or not any(len(d) for d in detections):
         raise TrackError(f"{name}: nothing moves in frames {fnums[0]}..{fnums[-1]}: no pixel "
                          f"differs from the background by more than {settings.k_sigma:g} x "
@@ -231,6 +245,11 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
                                            find_release=view != "top", residual=residual,
                                            weight=moments[:, 0], bar=bars)
     u, v = chain.u.copy(), chain.v.copy()
+    bridged = bridge_gaps(u, v, flags, reasons, chain, settings)
+    if bridged:
+        notes.append(f"{bridged} frames without a detection inside the object's chain: "
+                     f"placed on the path through the clean frames either side "
+                     f"(flagged predicted)")
     area = np.full(n, np.nan)
     angle = np.full(n, np.nan)
     length = np.full(n, np.nan)
@@ -243,7 +262,6 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
         lam = 0.5 * (muu + mvv) + np.hypot(0.5 * (muu - mvv), muv)
         length[i] = np.sqrt(12.0 * max(lam, 0.0))
         contrast.append(float(d["contrast"]))
-    mask = _blade_mask(blade_region, source.shape)
     reasons["blade"] = np.zeros(n, bool)
     if mask is not None:
         for i in chain.frames:

@@ -79,7 +79,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from vidtrack.errors import TrackError
+from vidtrack.errors import TrackError, VidtrackError
 from vidtrack.track._flags import (APPEARANCE, BLADE, BORDER, EXCLUDED, FLAGS, LOST, MERGED,
                                    OUTLIER, PRE_RELEASE, PREDICTED)
 from vidtrack.track._ghost import (HELD_SHARE, changed, disc_radius, disc_share, held,
@@ -413,8 +413,11 @@ def track_parts(source, *, background=None, view=None, k_sigma=5.0, min_area_px=
         settings = settings or TrackerSettings()
         given = {"k_sigma": k_sigma, "min_area_px": min_area_px, "max_gap": max_gap}
         defaults = {"k_sigma": 5.0, "min_area_px": 4, "max_gap": 5}
-        settings = dataclasses.replace(
-            settings, **{k: val for k, val in given.items() if val != defaults[k]})
+        try:
+            settings = dataclasses.replace(
+                settings, **{k: val for k, val in given.items() if val != defaults[k]})
+        except VidtrackError as err:
+            raise TrackError(str(err)) from None
         return track_flight(source, settings=settings, background=background, view=view,
                             target=target, blade_region=blade_region, cancel=cancel)
     kw = dict(view=view, k_sigma=k_sigma, min_area_px=min_area_px, max_gap=max_gap,
