@@ -9,7 +9,9 @@ Layout (HDF5, written with h5py, whole or not at all)::
                       area_px, angle_rad, length_px (float64), flags (int32),
                       manual (uint8 0/1; only in a view with points placed by hand),
                       camera_du_px, camera_dv_px (float64; only in a view whose
-                      shaking camera was steadied), reason (UTF-8 strings: which
+                      shaking camera was steadied), end1_u_px, end1_v_px,
+                      end2_u_px, end2_v_px (float64; a rod's two ends, from the
+                      flight tracker; NaN where no bar), reason (UTF-8 strings: which
                       test flagged the frame, vidtrack.track.flag.REASONS, "+"-joined;
                       only from the flight tracker)
                       attrs: release_frame (-1: none), release_t_s (NaN: none),
@@ -161,14 +163,14 @@ def views_digest(tracks):
     a view edited by hand from an edit elsewhere in the file."""
     import hashlib
 
-    from vidtrack.track.tracker import CAMERA_COLUMNS, TRACK_COLUMNS
+    from vidtrack.track.tracker import OPTIONAL_COLUMNS, TRACK_COLUMNS
 
     h = hashlib.sha256()
     for v in _view_order(tracks):
         d = tracks[v].data
         h.update(v.encode())
         for c in (TRACK_COLUMNS + ((_MANUAL,) if _MANUAL in d else ())
-                  + tuple(c for c in CAMERA_COLUMNS if c in d)):
+                  + tuple(c for c in OPTIONAL_COLUMNS if c in d)):
             dtype = {"frame": np.int64, "flags": np.int32, _MANUAL: np.uint8}.get(c, np.float64)
             h.update(c.encode())
             h.update(np.ascontiguousarray(d[c].to_numpy(dtype=dtype)).tobytes())
@@ -206,7 +208,7 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
     import h5py
 
     from vidtrack import __version__
-    from vidtrack.track.tracker import CAMERA_COLUMNS, FLAGS
+    from vidtrack.track.tracker import FLAGS, OPTIONAL_COLUMNS
 
     path = Path(path)
     calibrated = _is_calibrated(world)
@@ -238,9 +240,9 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
             if _MANUAL in d:
                 # points placed by hand (flags 0): only a view that has them
                 _dataset(g, _MANUAL, d[_MANUAL].to_numpy(dtype=np.uint8))
-            for c in CAMERA_COLUMNS:
+            for c in OPTIONAL_COLUMNS:
                 if c in d:
-                    # a shaking camera's shift (a steadied view only)
+                    # a shaking camera's shift (a steadied view only), a rod's ends
                     _dataset(g, c, d[c].to_numpy(dtype=np.float64))
             if _REASON in d:
                 g.create_dataset(_REASON, data=d[_REASON].astype(str).to_numpy(dtype=object),
@@ -317,7 +319,7 @@ def read_tracks(path):
     import h5py
 
     from vidtrack.world.orthogonal import WorldTrack, reference_frames
-    from vidtrack.track.tracker import CAMERA_COLUMNS, TRACK_COLUMNS, Track
+    from vidtrack.track.tracker import OPTIONAL_COLUMNS, TRACK_COLUMNS, Track
 
     path = Path(path)
     if not path.is_file():
@@ -344,7 +346,7 @@ def read_tracks(path):
                 cols[c] = g[c][()]
             if _MANUAL in g:
                 cols[_MANUAL] = g[_MANUAL][()].astype(bool)
-            for c in CAMERA_COLUMNS:
+            for c in OPTIONAL_COLUMNS:
                 if c in g:
                     cols[c] = g[c][()]
             if _REASON in g:
@@ -455,16 +457,17 @@ def tracks_table(tracks, *, calibrated=False):
         An unknown view name, or a track without the columns of
         :data:`vidtrack.track.tracker.TRACK_COLUMNS`.
     """
-    from vidtrack.track.tracker import CAMERA_COLUMNS, TRACK_COLUMNS
+    from vidtrack.track.tracker import CAMERA_COLUMNS, END_COLUMNS, TRACK_COLUMNS
 
     _check_tracks(tracks, TRACKS_CSV, calibrated=calibrated)
     manual = any(_MANUAL in tracks[v].data for v in tracks)
     columns = list(_TRACKS_CSV_FIRST) + [c for c in TRACK_COLUMNS
                                          if c not in _TRACKS_CSV_FIRST]
     camera = any(CAMERA_COLUMNS[0] in tracks[v].data for v in tracks)
+    ends = any(END_COLUMNS[0] in tracks[v].data for v in tracks)
     reason = any(_REASON in tracks[v].data for v in tracks)
-    columns += ([_MANUAL] * manual + list(CAMERA_COLUMNS) * camera + ["flag_names"]
-                + [_REASON] * reason)
+    optional = list(CAMERA_COLUMNS) * camera + list(END_COLUMNS) * ends
+    columns += [_MANUAL] * manual + optional + ["flag_names"] + [_REASON] * reason
     parts = []
     for v in _view_order(tracks):
         d = tracks[v].data
@@ -476,7 +479,7 @@ def tracks_table(tracks, *, calibrated=False):
         if manual:
             part[_MANUAL] = (d[_MANUAL].to_numpy(dtype=np.uint8) if _MANUAL in d
                              else np.zeros(len(d), dtype=np.uint8))
-        for c in CAMERA_COLUMNS if camera else ():
+        for c in optional:
             part[c] = (d[c].to_numpy(dtype=np.float64) if c in d
                        else np.full(len(d), np.nan))
         part["flag_names"] = _flag_names(part["flags"])

@@ -33,11 +33,11 @@ from vidtrack.track.choose import choose
 from vidtrack.track.detect import Detector
 from vidtrack.track.flag import REASON_COLUMN, bridge_gaps, judge, reason_codes
 from vidtrack.track.link import link
-from vidtrack.track.measure import chain_shape, has_highlight, measure_frame
+from vidtrack.track.measure import chain_shape, has_highlight, is_rod, measure_frame
 from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
 
-__all__ = ["track_flight", "blade_mask"]
+__all__ = ["track_flight", "blade_mask", "rod_ends"]
 
 #: Frames decoded ahead of the detection (a bounded queue: memory flat in length).
 _AHEAD = 8
@@ -126,14 +126,14 @@ def _steadied(frames, steady):
 def _measure(source, held, detector, detections, chain, settings, cancel, steady=None):
     """Each chain frame measured by the object's shape (:mod:`vidtrack.track.measure`):
     the chain's positions are replaced; returns per frame position (weight, muu, mvv,
-    muv), the residual share and, for a rod, its bar (half length, half width, coverage,
-    misfit) (NaN where the chain has no detection or no bar). Footage not held
+    muv), the residual share and the model's (half length, half width, coverage,
+    misfit, angle) (NaN where the chain has no detection or no model). Footage not held
     is decoded again for it, one frame at a time."""
     n = len(detections)
     shape = chain_shape(chain)
     moments = np.full((n, 4), np.nan)
     residual = np.full(n, np.nan)
-    bars = np.full((n, 4), np.nan)
+    bars = np.full((n, 5), np.nan)
     wanted = set(int(i) for i in chain.frames)
     highlight = has_highlight([detections[i][chain.pick[i]] for i in chain.frames],
                               settings)
@@ -156,6 +156,22 @@ def _measure(source, held, detector, detections, chain, settings, cancel, steady
         if i >= chain.frames[-1]:
             break
     return moments, residual, bars
+
+
+def rod_ends(u, v, half_length, angle):
+    """A rod's two ends per frame (``(n, 4)``: end 1's u, v, end 2's u, v; px), from its
+    centre and its bar's half length and angle, end 1 kept on the side it was on in the
+    frame before (the bar's angle is known up to a half turn); NaN without a bar."""
+    d = np.column_stack([np.cos(angle), np.sin(angle)]) * half_length[:, None]
+    last = None
+    for i in range(d.shape[0]):
+        if not np.isfinite(d[i]).all():
+            continue
+        if last is not None and d[i] @ last < 0:
+            d[i] = -d[i]
+        last = d[i]
+    c = np.column_stack([u, v])
+    return np.column_stack([c + d, c - d])
 
 
 def blade_mask(blade_region, shape):
@@ -243,7 +259,7 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     del held
     flags, release, scatter, notes, reasons = judge(chain, detections, n, settings,
                                            find_release=view != "top", residual=residual,
-                                           weight=moments[:, 0], bar=bars)
+                                           weight=moments[:, 0], bar=bars[:, :4])
     u, v = chain.u.copy(), chain.v.copy()
     bridged = bridge_gaps(u, v, flags, reasons, chain, settings)
     if bridged:
@@ -296,6 +312,10 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
                REASON_COLUMN: reason_codes(reasons, n)}
     if steady is not None:
         columns.update(zip(CAMERA_COLUMNS, shifts.T))
+    if is_rod(chain_shape(chain)):
+        from vidtrack.track.tracker import END_COLUMNS
+
+        columns.update(zip(END_COLUMNS, rod_ends(u, v, bars[:, 0], bars[:, 4]).T))
     return dict(columns=columns, view=view,
                 release_frame=None if rel_pos is None else int(fnums[rel_pos]),
                 release_note=rel_note,

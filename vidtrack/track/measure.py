@@ -68,6 +68,12 @@ def chain_shape(chain):
     return Shape(np.nanmedian(chain.major[idx]), np.nanmedian(chain.minor[idx]))
 
 
+def is_rod(shape):
+    """Whether a chain's object is a rod (measured by a bar): its spread along it at
+    least :data:`ROD_ASPECT` times its spread across."""
+    return shape.major > ROD_ASPECT * shape.minor
+
+
 def has_highlight(dets, settings):
     """Whether a chain's object is a body with a highlight: of two polarities, its body's
     level on one side of the background, in at least ``highlight_frames`` of its
@@ -100,8 +106,9 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     -------
     (u, v, weight, muu, mvv, muv, residual, bar)
         The centroid (px), the weight inside the kernel, its second central moments
-        (px^2), the residual share, and for a rod measured by its bar, the bar's
-        ``(half length, half width, coverage, misfit)`` (px, px, 1, 1; see
+        (px^2), the residual share, and for an object measured by its model (a rod's
+        bar, a compact object's ellipse), the model's ``(half length, half width,
+        coverage, misfit, angle)`` (px, px, 1, 1, rad from +u towards +v; see
         :func:`vidtrack.track.rod.fit_rod`), else None.
     """
     k = settings.kernel_sigmas
@@ -201,7 +208,7 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
         clear = np.abs(span) > CLEAR_SIGMAS * sg
         sign = 1.0 if det["contrast"] >= 0 else -1.0
         cover = np.where(clear, d / np.where(clear, span, 1.0), sign * d / level)
-        rod = shape.major > ROD_ASPECT * shape.minor
+        rod = is_rod(shape)
         if inner is not None:
             cover = np.where(np.isfinite(inner), inner, cover)
         px, py, pc, measured = _kernel_pixels(cover, fg, n_lab, lab, (r0, c0),
@@ -219,7 +226,8 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
             cu, cv, fitted, misfit = fit
             if rod:
                 shape.profile = fitted[4:]
-            bar = (float(fitted[3]), float(fitted[4]), float(fitted[5]), misfit)
+            bar = (float(fitted[3]), float(fitted[4]), float(fitted[5]), misfit,
+                   float(fitted[2]))
     eu, ev = x - cu, y - cv
     muu = float(np.sum(wi * eu * eu) / sw)
     mvv = float(np.sum(wi * ev * ev) / sw)

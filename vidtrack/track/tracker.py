@@ -88,6 +88,11 @@ from vidtrack.track._ghost import (HELD_SHARE, changed, disc_radius, disc_share,
 from vidtrack.track._pass import Cancelled, Pass
 from vidtrack.track.steady import CAMERA_COLUMNS  # noqa: F401 (a track's optional columns)
 
+#: A rod's two ends (the flight tracker's; a track's optional columns, px).
+END_COLUMNS = ("end1_u_px", "end1_v_px", "end2_u_px", "end2_v_px")
+#: The optional numeric columns a track may have: a steadied camera's shift, a rod's ends.
+OPTIONAL_COLUMNS = CAMERA_COLUMNS + END_COLUMNS
+
 log = logging.getLogger(__name__)
 
 if TYPE_CHECKING:
@@ -131,7 +136,10 @@ class Track:
         coverage's second moments: a rod's length), ``flags`` (see the module); and
         ``manual`` (bool: the point was placed by hand, flags 0) when the scene gives
         manual points for the view; ``reason`` (str: which test flagged the frame,
-        :data:`vidtrack.track.flag.REASONS`) from the flight tracker.
+        :data:`vidtrack.track.flag.REASONS`) from the flight tracker; a steadied
+        camera's shift (:data:`CAMERA_COLUMNS`); a rod's two ends from the flight
+        tracker (:data:`END_COLUMNS`, px; end 1 on the side it was on in the frame
+        before; NaN where no bar was fitted).
     view : str or None
         ``"front"``, ``"top"`` or None.
     release_frame : int or None
