@@ -2,21 +2,65 @@
 
 Truth the code did not make:
 
+- ``datasets/run42``, rendered by ideal orthographic cameras (truth.json): there is no
+  perspective, and its fit gets no note;
 - pinhole cameras square to the planes imaged here with ``cv2.projectPoints`` at known
-  distances: the views' disagreement on X gives 1 / d back.
+  distances: the views' disagreement on X gives 1 / d back;
+- a square rig rendered by ``vidtrack synth`` with pinhole cameras 25 m from the planes
+  and the front view's ``camera_distance_m`` left out: the fit passes every cross-check,
+  k3 is off by about 5 standard errors, and the note says so. The shift it states is
+  checked against the k the same run gets with the truth's distance given.
 """
 
 import dataclasses
+import json
+import re
+import shutil
 
 import cv2
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import REPO, run_vidtrack
 
 from fits.throw import position
-from vidtrack.run.perspective import camera_bound
+from vidtrack.run.perspective import NOTE_SHARE, camera_bound
 from vidtrack.track.tracker import Track
 from vidtrack.world.orthogonal import merge_tracks
+
+#: The square rig's distance (m): far enough that the views agree on X within the
+#: cross-check's pixel (0.65 px measured), near enough that k3 moves by ~5 standard errors.
+DISTANCE_M = 25.0
+#: The stated shift, taken to the truth's distance (x d / 25 m: the shift goes as 1 / d),
+#: against the shift measured with the truth's distance given: 0.1 to 0.3 % measured
+#: (k1..k3; the note rounds to 3 digits).
+SHIFT_RTOL = 0.05
+
+
+def _record(stdout):
+    rec = json.loads(stdout)
+    return rec[0] if isinstance(rec, list) else rec
+
+
+def _perspective_notes(record):
+    return [n for n in record["notes"] if n.startswith("perspective in the")]
+
+
+# ------------------------------------------------------------------ the sample run
+
+def test_sample_run_gets_no_perspective_note(tmp_path, vidtrack_cli):
+    run = tmp_path / "run42"
+    shutil.copytree(REPO / "datasets" / "run42", run)
+    fit = vidtrack_cli("-v", "fit", run, "--json", "--no-report")
+    assert fit.returncode == 0, fit.stderr
+    rec = _record(fit.stdout)
+    # weighed for both views (said with -v), noted for neither
+    for view in ("front", "top"):
+        assert f"perspective of the {view} view: 1/d = " in fit.stderr, fit.stderr
+    assert not [n for n in rec["notes"] if "perspective" in n], rec["notes"]
+    truth = json.loads((run / "truth.json").read_text())["truth"]["k"]
+    for k, want in truth.items():
+        assert rec["coefficients"][k]["value"] == pytest.approx(want, rel=0.005), k
 
 
 # ------------------------------------------------------------------ 1 / d from the views
@@ -81,3 +125,77 @@ def test_views_agreement_on_x_gives_the_camera_distances():
     for a, se in est0.values():
         # measured 0.0032 +- 0.0024 and 0.0005 +- 0.0020 /m: no camera nearer than ~100 m
         assert abs(a) < 3 * se and se < 0.01
+
+
+# ------------------------------------------------------------------ a rig where it matters
+
+@pytest.fixture(scope="module")
+def square_rig(tmp_path_factory):
+    """The square rig at 25 m fitted twice: with both distances (the truth's), and with
+    the front view's left out. Returns (given record, front-missing record, stderr)."""
+    base = tmp_path_factory.mktemp("persp_note")
+    given = base / "given"
+    r = run_vidtrack("synth", given, "--cameras", "square", "--camera-distance-m",
+                     DISTANCE_M, "--size", "400x184", "--top-size", "400x112",
+                     "--flight-s", "0.3", "--straw-diameter-m", "0.02", "--quality", "40",
+                     "--noise", "1.0", "--exposure-samples", "2", "-q")
+    assert r.returncode == 0, r.stderr
+    missing = base / "front_missing"
+    shutil.copytree(given, missing)
+    scene = (missing / "scene.toml").read_text()
+    head, tail = scene.split("[views.top]")
+    assert head.count("camera_distance_m = ") == 1
+    (missing / "scene.toml").write_text("\n".join(
+        ln for ln in head.splitlines() if not ln.startswith("camera_distance_m"))
+        + "\n[views.top]" + tail)
+    out = []
+    for run in (given, missing):
+        # no --accept-disagreement: at 25 m the views agree on X within the checks
+        fit = run_vidtrack("fit", run, "--json", "--no-report")
+        assert fit.returncode == 0, fit.stderr
+        out.append(_record(fit.stdout))
+    return out[0], out[1], json.loads((given / "truth.json").read_text())["truth"]["k"]
+
+
+def test_distance_given_no_note(square_rig):
+    given, _, truth = square_rig
+    assert _perspective_notes(given) == []
+    assert sum(n.startswith("perspective corrected") for n in given["notes"]) == 2
+    for k, want in truth.items():
+        assert given["coefficients"][k]["value"] == pytest.approx(want, rel=0.01), k
+
+
+def test_note_states_the_shift_the_distance_makes(square_rig):
+    given, missing, truth = square_rig
+    notes = _perspective_notes(missing)
+    assert len(notes) == 1, missing["notes"]
+    note = notes[0]
+    # the view, the key, what to do
+    assert note.startswith("perspective in the front view could move k "
+                           "(no views.front.camera_distance_m)")
+    assert "give views.front.camera_distance_m in scene.toml" in note
+    assert "the perspective is then corrected" in note
+    # the distance: the nearest the views' X allow, a little nearer than the truth's
+    distance = float(re.search(r"as near as ([\d.]+) m from the plane Z = 0", note).group(1))
+    assert 0.9 * DISTANCE_M < distance <= DISTANCE_M
+    stated = {m[0]: (float(m[1]), float(m[2])) for m in
+              re.findall(r"(k\d) by ([-+]?[\d.e+-]+|0) \(([\d.e+-]+) standard errors\)", note)}
+    assert set(stated) == {"k1", "k2", "k3", "k4"}, note
+    # uncorrected, k3 is off the truth by ~5 of its standard errors, and the fit knew
+    # nothing else of it: the checks passed
+    c3 = missing["coefficients"]["k3"]
+    assert (c3["value"] - truth["k3"]) / c3["stderr"] > 3
+    assert not missing["checks"]
+    for k, (shift, share) in stated.items():
+        measured = given["coefficients"][k]["value"] - missing["coefficients"][k]["value"]
+        stderr = missing["coefficients"][k]["stderr"]
+        assert share == pytest.approx(abs(shift) / stderr, rel=0.02, abs=0.01), k
+        if share < NOTE_SHARE:
+            # k4 (the top view's axis): barely moved, as measured
+            assert k == "k4" and abs(measured) < NOTE_SHARE * stderr
+            continue
+        assert np.sign(shift) == np.sign(measured), (k, shift, measured)
+        # at the truth's distance (the shift goes as 1 / d)
+        assert shift * distance / DISTANCE_M == pytest.approx(measured, rel=SHIFT_RTOL), k
+    assert stated["k3"][1] > 3 and {k for k, (_, s) in stated.items() if s >= 1} == \
+        {"k1", "k2", "k3"}
