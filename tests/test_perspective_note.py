@@ -32,7 +32,7 @@ from vidtrack.world.orthogonal import merge_tracks
 #: cross-check's pixel (0.65 px measured), near enough that k3 moves by ~5 standard errors.
 DISTANCE_M = 25.0
 #: The stated shift, taken to the truth's distance (x d / 25 m: the shift goes as 1 / d),
-#: against the shift measured with the truth's distance given: 0.1 to 0.3 % measured
+#: against the shift measured with the truth's distance given: 0.03 to 0.2 % measured
 #: (k1..k3; the note rounds to 3 digits).
 SHIFT_RTOL = 0.05
 
@@ -179,7 +179,8 @@ def test_note_states_the_shift_the_distance_makes(square_rig):
     distance = float(re.search(r"as near as ([\d.]+) m from the plane Z = 0", note).group(1))
     assert 0.9 * DISTANCE_M < distance <= DISTANCE_M
     stated = {m[0]: (float(m[1]), float(m[2])) for m in
-              re.findall(r"(k\d) by ([-+]?[\d.e+-]+|0) \(([\d.e+-]+) standard errors\)", note)}
+              re.findall(r"(k\d) by ([-+]?[\d.e+-]+|0) \(([\d.e+-]+)(?: standard errors)?\)",
+                         note)}
     assert set(stated) == {"k1", "k2", "k3", "k4"}, note
     # uncorrected, k3 is off the truth by ~5 of its standard errors, and the fit knew
     # nothing else of it: the checks passed

@@ -160,14 +160,15 @@ class ViewEffect:
                    + ("" if self.inverse_distance is not None else
                       " (the views share too few points on X to tell more)"))
         lo, hi = self.depth_range_m
-        moves = ", ".join(f"{k} by {_signed(self.shift[k])} ({self.share[k]:.2g} standard "
-                          "errors)" for k in self.shift)
+        moves = [f"{k} by {_signed(self.shift[k])} ({self.share[k]:.2g})" for k in self.shift]
+        if moves:
+            moves[0] = moves[0][:-1] + " standard errors)"
         return (f"perspective in the {self.view} view could move k (no views.{self.view}."
                 f"camera_distance_m): {why} ({A} = {lo:+.3f} .. {hi:+.3f} m seen by the "
-                f"{self.other} view); with the camera there {moves}, the note's threshold "
-                f"being {NOTE_SHARE:g} standard error: give views.{self.view}."
-                f"camera_distance_m in scene.toml (the distance from the camera to the plane "
-                f"{A} = 0, m; the perspective is then corrected)")
+                f"{self.other} view); corrected for a camera there, k would move: "
+                f"{', '.join(moves)} (the note's threshold: {NOTE_SHARE:g} standard error); "
+                f"give views.{self.view}.camera_distance_m in scene.toml (the distance from "
+                f"the camera to the plane {A} = 0, m; the perspective is then corrected)")
 
 
 @dataclass(frozen=True)
