@@ -70,6 +70,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vidtrack.run.scale_error import K_NAMES
+
 log = logging.getLogger(__name__)
 
 __all__ = ["PerspectiveEffect", "ViewEffect", "perspective_effect", "nearest_plausible_distance",
@@ -101,7 +103,6 @@ _REFINE_PASSES = 6
 _MIN_POINTS = 20
 #: Largest lag-1 autocorrelation used to widen the standard error of 1 / d.
 _MAX_RHO = 0.95
-K_NAMES = ("k1", "k2", "k3", "k4")
 
 
 @dataclass(frozen=True)
