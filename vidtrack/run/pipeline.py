@@ -532,6 +532,15 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
     said = {f.check for f in findings}
     notes += [w for w in world.warnings          # not twice: the finding says it
               if not ("x_disagreement" in said and w.startswith("the views disagree on X"))]
+    # a view without camera_distance_m: a note only when its perspective could move k
+    # by a standard error (vidtrack.run.perspective)
+    from vidtrack.run.perspective import perspective_effect
+
+    t0 = time.perf_counter()
+    effect = perspective_effect(scene, tracks, world, fit, cp=cp, model=options.model)
+    if effect is not None:
+        notes += list(effect.notes)
+        timings["perspective"] = time.perf_counter() - t0
     for name, tr in tracks.items():
         notes += [f"{name}: {n}" for n in tr.notes]
     extra = {"throw": Path(folder).name if Path(folder) != scene.folder else None,

@@ -33,8 +33,9 @@ X, which is how they are put on one clock and checked against each other:
 
 Perspective (:mod:`vidtrack.world.parallax`): once the views are on one clock, a view
 whose mapping has ``camera_distance_m`` has each point's scale corrected by its depth,
-which the other view measures (before the check of step 3); without it the notes say
-that perspective is not corrected and give the flight's depth range.
+which the other view measures (before the check of step 3); without it nothing is
+corrected, and the fit stage weighs what that could do to k
+(:mod:`vidtrack.run.perspective`).
 
 Only usable points (flags 0) enter: flagged frames never become world coordinates, and
 no point of any view from before its t = 0 reaches the world track.

@@ -17,9 +17,9 @@ coordinate moves by more than a nanometre (a few to a dozen passes).
 The principal point is the calibration's (cx, cy) when the view has a camera
 calibration, else the image centre.
 
-Without ``camera_distance_m`` nothing is corrected; the notes then say so and give the
-depth range of the flight, so that the size of the parallax can be judged: the scale
-changes by 1/d per metre of depth, d the camera's distance.
+Without ``camera_distance_m`` nothing is corrected, and nothing is said here: whether
+that matters for k depends on the fit, and :mod:`vidtrack.run.perspective` works it out
+(a note only when k could move by a standard error).
 """
 
 import numpy as np
@@ -35,7 +35,6 @@ _CONVERGED_M = 1e-9
 #: corrected view are dropped (their depth is unknown).
 _EXTRAPOLATE_FRAMES = 10
 _EXTRAPOLATE_POINTS = 15
-_EXAMPLE_DISTANCES_M = (1.5, 3.0)
 
 
 def _depth_at(t_new, t, depth, step):
@@ -98,8 +97,8 @@ def correct_parallax(world, tracks, mappings, t0, steps):
     -------
     (dict of str to pandas.DataFrame, list of str)
         The points with corrected coordinates (points whose depth is unknown dropped),
-        and notes for the run's record: what was corrected and by how much, or, for a
-        view without ``camera_distance_m``, that it was not and the flight's depth range.
+        and notes for the run's record: what was corrected and by how much (nothing for
+        a view without ``camera_distance_m``).
     """
     names = [v for v in ("front", "top") if v in world]
     notes = []
@@ -109,24 +108,6 @@ def correct_parallax(world, tracks, mappings, t0, steps):
         other = next((o for o in names if o != v and f"{axis}_m" in world[o]), None)
         depth_of[v] = (other, axis, sign)
     corrected = [v for v in names if mappings[v].camera_distance_m is not None]
-    for v in names:
-        other, axis, sign = depth_of[v]
-        if v in corrected or other is None or not len(world[other]):
-            continue
-        vals = world[other][f"{axis}_m"].to_numpy(dtype=np.float64)
-        t = world[other]["t_s"].to_numpy(dtype=np.float64) - t0[other]
-        vals = vals[(t >= 0) & np.isfinite(vals)]
-        if not vals.size:
-            continue
-        lo, hi = float(vals.min()), float(vals.max())
-        span = hi - lo
-        examples = ", ".join(f"{100.0 * span / d:.2g} % at {d:g} m" for d in
-                             _EXAMPLE_DISTANCES_M)
-        notes.append(f"perspective not corrected in the {v} view (no views.{v}."
-                     f"camera_distance_m): the flight's depth for it, {axis.upper()} seen by "
-                     f"the {other} view, spans {lo:+.3f} .. {hi:+.3f} m ({span:.3f} m); the "
-                     f"scale changes by 1/d per metre of depth for a camera d metres from the "
-                     f"plane {axis.upper()} = 0, over this span {examples}")
     if not corrected:
         return world, notes
     pixels, principal = {}, {}
