@@ -26,7 +26,7 @@ from vidtrack.track._select import Acquirer, Tracklet
 from vidtrack.track._step import HIDDEN_PX, follow, part_hidden
 from vidtrack.track._target import ambiguity_message, target_blob, target_index
 from vidtrack.track.background import Background, estimate_background, sample_indices
-from vidtrack.track.flight import blade_mask
+from vidtrack.track.flight import Cancelled, blade_mask
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
 
 #: Memory the start-of-footage buffer for the background may take (bytes).
@@ -62,10 +62,6 @@ _SHADOW_ALIGN = 0.8
 _TOP_RELEASE_NOTE = ("not looked for in the top view: it sees the rotor's plane edge-on, "
                      "where the ride on the blade barely differs from free flight; the "
                      "merge carries t = 0 over from the front view through the shared X")
-
-
-class Cancelled(Exception):
-    """A tracking pass stopped by its ``cancel`` event."""
 
 
 def _name(view, source):

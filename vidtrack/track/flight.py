@@ -34,10 +34,11 @@ from vidtrack.track.detect import Detector
 from vidtrack.track.flag import REASON_COLUMN, bridge_gaps, judge, reason_codes
 from vidtrack.track.link import link
 from vidtrack.track.measure import chain_shape, has_highlight, is_rod, measure_frame
+from vidtrack.track.rod import END_COLUMNS
 from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
 
-__all__ = ["track_flight", "blade_mask", "rod_ends"]
+__all__ = ["track_flight", "blade_mask", "rod_ends", "Cancelled"]
 
 #: Frames decoded ahead of the detection (a bounded queue: memory flat in length).
 _AHEAD = 8
@@ -48,6 +49,10 @@ HOLD_BYTES = 96 * 2 ** 20
 
 _TOP_NOTE = ("release: not looked for in the top view (it sees the rotor's plane edge-on); "
              "the front view's is carried over")
+
+
+class Cancelled(Exception):
+    """Tracking stopped by its ``cancel`` event (either tracker)."""
 
 
 def _frames(source, cancel):
@@ -81,8 +86,6 @@ def _frames(source, cancel):
             if isinstance(item, BaseException):
                 raise item
             if cancel is not None and cancel.is_set():
-                from vidtrack.track._pass import Cancelled
-
                 raise Cancelled()
             yield item
     finally:
@@ -313,8 +316,6 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     if steady is not None:
         columns.update(zip(CAMERA_COLUMNS, shifts.T))
     if is_rod(chain_shape(chain)):
-        from vidtrack.track.tracker import END_COLUMNS
-
         columns.update(zip(END_COLUMNS, rod_ends(u, v, bars[:, 0], bars[:, 4]).T))
     return dict(columns=columns, view=view,
                 release_frame=None if rel_pos is None else int(fnums[rel_pos]),

@@ -23,7 +23,11 @@ import math
 
 import numpy as np
 
-__all__ = ["fit_rod", "F_SCALE", "MIN_LENGTH_PX", "FOOTPRINT_SHARE"]
+__all__ = ["fit_rod", "F_SCALE", "MIN_LENGTH_PX", "FOOTPRINT_SHARE", "END_COLUMNS"]
+
+#: A rod's track's columns for its two ends (px): the ends of the bar fitted to it
+#: (:func:`vidtrack.track.flight.rod_ends`).
+END_COLUMNS = ("end1_u_px", "end1_v_px", "end2_u_px", "end2_v_px")
 
 #: The robust loss of the fit (scipy's ``least_squares``), and the scale of the
 #: residuals it is taken at (coverage).

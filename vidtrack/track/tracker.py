@@ -86,10 +86,9 @@ from vidtrack.track._ghost import (HELD_SHARE, changed, disc_radius, disc_share,
                                    moved_over, overlaps, slow_start, still_run,
                                    tail_background, tail_wins)
 from vidtrack.track._pass import Cancelled, Pass
-from vidtrack.track.steady import CAMERA_COLUMNS  # noqa: F401 (a track's optional columns)
+from vidtrack.track.rod import END_COLUMNS  # a rod's two ends (the flight tracker's)
+from vidtrack.track.steady import CAMERA_COLUMNS  # a steadied camera's shift
 
-#: A rod's two ends (the flight tracker's; a track's optional columns, px).
-END_COLUMNS = ("end1_u_px", "end1_v_px", "end2_u_px", "end2_v_px")
 #: The optional numeric columns a track may have: a steadied camera's shift, a rod's ends.
 OPTIONAL_COLUMNS = CAMERA_COLUMNS + END_COLUMNS
 
