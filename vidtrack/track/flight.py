@@ -126,14 +126,14 @@ def _steadied(frames, steady):
         yield steady.warp(i, frame)
 
 
-def _measure(source, held, detector, detections, chain, settings, cancel, steady=None):
+def _measure(source, held, detector, detections, chain, shape, settings, cancel,
+             steady=None):
     """Each chain frame measured by the object's shape (:mod:`vidtrack.track.measure`):
     the chain's positions are replaced; returns per frame position (weight, muu, mvv,
     muv), the residual share and the model's (half length, half width, coverage,
     misfit, angle) (NaN where the chain has no detection or no model). Footage not held
     is decoded again for it, one frame at a time."""
     n = len(detections)
-    shape = chain_shape(chain)
     moments = np.full((n, 4), np.nan)
     residual = np.full(n, np.nan)
     bars = np.full((n, 5), np.nan)
@@ -257,8 +257,10 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
                                frame_numbers=fnums, what=what)
     except TrackError as err:
         raise TrackError(f"{name}: {err}") from None
-    moments, residual, bars = _measure(source, held, detector, detections, chain, settings,
-                                       cancel, steady)
+    shape = chain_shape(chain)
+    rod = is_rod(shape)     # (before the measurement refines the shape's profile)
+    moments, residual, bars = _measure(source, held, detector, detections, chain, shape,
+                                       settings, cancel, steady)
     del held
     flags, release, scatter, notes, reasons = judge(chain, detections, n, settings,
                                            find_release=view != "top", residual=residual,
@@ -315,7 +317,7 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
                REASON_COLUMN: reason_codes(reasons, n)}
     if steady is not None:
         columns.update(zip(CAMERA_COLUMNS, shifts.T))
-    if is_rod(chain_shape(chain)):
+    if rod:
         columns.update(zip(END_COLUMNS, rod_ends(u, v, bars[:, 0], bars[:, 4]).T))
     return dict(columns=columns, view=view,
                 release_frame=None if rel_pos is None else int(fnums[rel_pos]),

@@ -51,6 +51,9 @@ SHAKE_PX = 0.5
 SHAKE_MAX_PX = 6.0
 #: Corners followed (at most), and the fewest that must agree for a frame's shift.
 CORNERS, AGREE_MIN = 400, 12
+#: Two shifts (a cell's vote, a corner's) agree when they lie within this many pixels
+#: of each other along each axis.
+AGREE_PX = 0.5
 #: The cells (about square) the corners are spread over (each votes once), and how strong a
 #: corner must be against the strongest in the frame (its smaller eigenvalue).
 _CELLS, _QUALITY = 16, 3e-4
@@ -131,25 +134,25 @@ class _Corners:
         if self.agree_share is None:
             # (the rules tracker's: the cells' median, half of them agreeing with it)
             med = np.median(v, axis=0)
-            agree_cells = [c for c, m in votes.items() if np.all(np.abs(m - med) <= 0.5)]
+            agree_cells = [c for c, m in votes.items() if np.all(np.abs(m - med) <= AGREE_PX)]
             if len(agree_cells) < max(2, 0.5 * len(votes)):
                 return None
         else:
             # the shift the most cells agree with (within half a pixel), the cells'
             # median deciding between equals; it must hold agree_share of the votes and
             # more cells than any group of the others that agree among themselves
-            near = np.all(np.abs(v[:, None] - v[None]) <= 0.5, axis=2)
+            near = np.all(np.abs(v[:, None] - v[None]) <= AGREE_PX, axis=2)
             support = near.sum(axis=1)
             off = np.abs(v - np.median(v, axis=0)).sum(axis=1)
             best = min(range(len(v)), key=lambda j: (-support[j], off[j]))
             med = np.median(v[near[best]], axis=0)
-            inside = np.all(np.abs(v - med) <= 0.5, axis=1)
+            inside = np.all(np.abs(v - med) <= AGREE_PX, axis=1)
             rival = near[~inside][:, ~inside].sum(axis=1).max(initial=0)
             agree_cells = [c for c, ok in zip(votes, inside) if ok]
             if (len(agree_cells) < max(2, self.agree_share * len(votes))
                     or rival >= len(agree_cells)):
                 return None
-        agree = np.isin(cells, agree_cells) & np.all(np.abs(d - med) <= 0.5, axis=1)
+        agree = np.isin(cells, agree_cells) & np.all(np.abs(d - med) <= AGREE_PX, axis=1)
         if np.count_nonzero(agree) < AGREE_MIN:
             return None
         m = d[agree].mean(axis=0)
