@@ -92,8 +92,11 @@ def test_centroid_rms_on_unflagged_frames(default_run, view):
         assert tr.release_frame is None and "top view" in tr.release_note
 
 
-def test_release_frame_detected_and_ride_on_the_blade_flagged(default_run):
-    tr, per_frame, vt = _track_view(default_run, "front")
+@pytest.mark.parametrize("engine", ["rules", "flight"])
+def test_release_frame_detected_and_ride_on_the_blade_flagged(default_run, engine):
+    # the straw rides the rotor's tooth to frame 12 and overlaps its teeth to frame 23:
+    # one detection with the rotor all that time
+    tr, per_frame, vt = _track_view(default_run, "front", engine=engine)
     true_release = vt["release_frame"]
     assert tr.release_frame is not None
     assert abs(tr.release_frame - true_release) <= 1
@@ -104,6 +107,11 @@ def test_release_frame_detected_and_ride_on_the_blade_flagged(default_run):
     assert np.all(flags[before] & (PRE_RELEASE | MERGED))
     # while the straw overlaps the rotor's teeth its frames are flagged
     assert np.all(flags[per_frame["blade_overlap"].to_numpy()] != 0)
+    if engine == "flight":
+        # followed by its bar into the rotor, the ride is measured, not left out:
+        # measured 0.28 px from the truth at most over frames 0-23
+        err = centroid_errors(tr, per_frame)[per_frame["blade_overlap"].to_numpy()]
+        assert np.isfinite(err).all() and err.max() < 0.4, err
 
 
 # --------------------------------------------------------------------- the release

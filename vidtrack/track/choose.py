@@ -31,7 +31,7 @@ that pixel in that frame is the object, whatever else moves.
 import numpy as np
 
 from vidtrack.errors import TrackError
-from vidtrack.track.path import local_quadratic
+from vidtrack.track.path import extrapolate, local_quadratic
 
 __all__ = ["Chain", "grow", "choose", "flight_segment"]
 
@@ -74,19 +74,30 @@ class Chain:
         self.major = np.full(n, np.nan)
         self.minor = np.full(n, np.nan)
         for i in np.flatnonzero(pick >= 0):
-            d = detections[i][pick[i]]
-            self.u[i], self.v[i] = d["u"], d["v"]
-            self.size[i] = np.sqrt(max(int(d["area"]), 1))
-            self.weight[i] = d["weight"]
-            self.level[i] = d["level"]
-            self.shadow[i] = d["shadow"]
-            half = 0.5 * (float(d["muu"]) + float(d["mvv"]))
-            root = float(np.hypot(0.5 * (float(d["muu"]) - float(d["mvv"])), float(d["muv"])))
-            self.major[i] = np.sqrt(max(half + root, 0.0))
-            self.minor[i] = np.sqrt(max(half - root, 0.0))
+            self._take(i, detections[i][pick[i]])
         self.frames = np.flatnonzero(pick >= 0)
         self.score = 0.0
         self.explained = np.zeros(n, bool)
+
+    def _take(self, i, d):
+        self.u[i], self.v[i] = d["u"], d["v"]
+        self.size[i] = np.sqrt(max(int(d["area"]), 1))
+        self.weight[i] = d["weight"]
+        self.level[i] = d["level"]
+        self.shadow[i] = d["shadow"]
+        half = 0.5 * (float(d["muu"]) + float(d["mvv"]))
+        root = float(np.hypot(0.5 * (float(d["muu"]) - float(d["mvv"])), float(d["muv"])))
+        self.major[i] = np.sqrt(max(half + root, 0.0))
+        self.minor[i] = np.sqrt(max(half - root, 0.0))
+
+    def take(self, i, j, detections, at=None):
+        """Frame position ``i`` takes its detection ``j`` (at the point ``at``, default
+        the detection's centroid)."""
+        self.pick[i] = j
+        self._take(i, detections[i][j])
+        if at is not None:
+            self.u[i], self.v[i] = at
+        self.frames = np.flatnonzero(self.pick >= 0)
 
     @property
     def signal(self):
@@ -104,19 +115,7 @@ def _step(chain_f, chain_u, chain_v, chain_s, fi, settings, dets, chain_l=None):
     if len(dets) == 0:
         return -1, None
     k = settings.predict_frames
-    tf = np.asarray(chain_f[-k:], float)
-    tu = np.asarray(chain_u[-k:])
-    tv = np.asarray(chain_v[-k:])
-    order = min(2, tf.size - 1)
-    if order >= 1 and tf.size >= 3 and tf[-1] - tf[0] >= 2:
-        cu = np.polyfit(tf - tf[-1], tu, order)
-        cv = np.polyfit(tf - tf[-1], tv, order)
-        pu, pv = np.polyval(cu, fi - tf[-1]), np.polyval(cv, fi - tf[-1])
-    elif tf.size >= 2:
-        r = (fi - tf[-1]) / (tf[-1] - tf[-2])
-        pu, pv = tu[-1] + r * (tu[-1] - tu[-2]), tv[-1] + r * (tv[-1] - tv[-2])
-    else:
-        pu, pv = tu[-1], tv[-1]
+    pu, pv = extrapolate(chain_f[-k:], chain_u[-k:], chain_v[-k:], fi)
     size = float(np.median(chain_s[-k:]))
     gap = fi - chain_f[-1]
     gate = max(settings.gate_px, settings.gate_sizes * size) * (1.0 + 0.5 * (gap - 1))

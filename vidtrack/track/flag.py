@@ -148,7 +148,7 @@ def _appearance(size_measures, residual, weight, settings, frames=None):
 
 
 def judge(chain, detections, n, settings, *, find_release=True, residual=None,
-          weight=None, bar=None):
+          weight=None, bar=None, joined=None):
     """Flags, reasons and the release of a chosen chain.
 
     Parameters
@@ -165,6 +165,10 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     bar : numpy.ndarray, optional
         ``(n, 4)``: per frame, the rod's bar (half length, half width, coverage,
         misfit), NaN where it was not measured by one.
+    joined : numpy.ndarray of int, optional
+        Frame positions where a rod was followed by its model into what it is joined to
+        (:mod:`vidtrack.track.joined`): touched where their detection's size exceeds the
+        flight's (``k_flag`` robust scatters of its log, at least ``size_floor``).
 
     Returns
     -------
@@ -207,6 +211,14 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
         touched[barred], hidden[barred] = _appearance((2.0 * h, 2.0 * w), misfit,
                                                       4.0 * a * h * w, settings,
                                                       frames=idx[barred])
+    if joined is not None and len(joined):
+        # (a frame followed by the rod's model: its length and width are the flight's,
+        # held; its detection, grown beyond the flight's, is what it is joined to)
+        flight = np.flatnonzero(chain.explained)
+        logs = np.log(np.maximum(chain.size[flight], 1.0))
+        scale = robust_scale(logs, floor=settings.size_floor)
+        dev = np.log(np.maximum(chain.size[joined], 1.0)) - np.median(logs)
+        touched[np.searchsorted(idx, joined)] |= dev > settings.k_flag * scale
     grown = touched | hidden
     flags[idx[grown]] |= APPEARANCE
     off, scatter = _path_outliers(idx, uv, settings, ~grown)

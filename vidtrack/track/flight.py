@@ -32,6 +32,7 @@ from vidtrack.track.background import estimate_background, gather_samples
 from vidtrack.track.choose import choose
 from vidtrack.track.detect import Detector
 from vidtrack.track.flag import REASON_COLUMN, bridge_gaps, judge, reason_codes
+from vidtrack.track.joined import BAR_COLUMNS, follow_back
 from vidtrack.track.link import link
 from vidtrack.track.measure import chain_shape, has_highlight, is_rod, measure_frame
 from vidtrack.track.rod import END_COLUMNS
@@ -127,21 +128,31 @@ def _steadied(frames, steady):
 
 
 def _measure(source, held, detector, detections, chain, shape, settings, cancel,
-             steady=None):
+             steady=None, follow=False):
     """Each chain frame measured by the object's shape (:mod:`vidtrack.track.measure`):
     the chain's positions are replaced; returns per frame position (weight, muu, mvv,
     muv), the residual share and the model's (half length, half width, coverage,
-    misfit, angle) (NaN where the chain has no detection or no model). Footage not held
-    is decoded again for it, one frame at a time."""
+    misfit, angle, blurs; :data:`~vidtrack.track.joined.BAR_COLUMNS`) (NaN where the
+    chain has no detection or no model). Footage not held
+    is decoded again for it, one frame at a time (with ``follow``, the ``release_window``
+    frames before its flight are kept); returns also a frame position's frame, for those frames (None
+    for the others of footage not held)."""
     n = len(detections)
     moments = np.full((n, 4), np.nan)
     residual = np.full(n, np.nan)
-    bars = np.full((n, 5), np.nan)
+    bars = np.full((n, len(BAR_COLUMNS)), np.nan)
     wanted = set(int(i) for i in chain.frames)
+    # (a rod's frames before its flight are kept, for following it back by its model)
+    flight = np.flatnonzero(chain.explained)
+    lead = (range(max(int(flight[0]) - settings.release_window, 0), int(flight[0]))
+            if held is None and follow and flight.size else range(0))
+    kept = {}
     highlight = has_highlight([detections[i][chain.pick[i]] for i in chain.frames],
                               settings)
     frames = held if held is not None else _steadied(_frames(source, cancel), steady)
     for i, frame in enumerate(frames):
+        if i in lead:
+            kept[i] = frame
         if i not in wanted:
             continue
         det = detections[i][chain.pick[i]]
@@ -158,7 +169,7 @@ def _measure(source, held, detector, detections, chain, shape, settings, cancel,
             bars[i] = bar
         if i >= chain.frames[-1]:
             break
-    return moments, residual, bars
+    return moments, residual, bars, (held.__getitem__ if held is not None else kept.get)
 
 
 def rod_ends(u, v, half_length, angle):
@@ -259,14 +270,28 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
         raise TrackError(f"{name}: {err}") from None
     shape = chain_shape(chain)
     rod = is_rod(shape)     # (before the measurement refines the shape's profile)
-    moments, residual, bars = _measure(source, held, detector, detections, chain, shape,
-                                       settings, cancel, steady)
-    del held
+    # (a rod is followed back into what it rides where its release is looked for)
+    follow = rod and view != "top"
+    moments, residual, bars, get = _measure(source, held, detector, detections, chain,
+                                            shape, settings, cancel, steady, follow=follow)
+    followed = (follow_back(get, detections, chain, bars, detector, shape, settings)
+                if follow else np.zeros(0, int))
+    del held, get
+    for i in followed:      # (a bar's moments: its length and width as a uniform bar's)
+        h, w, a, _, ang = bars[i, :5]
+        c, s = np.cos(ang), np.sin(ang)
+        along, across = (2.0 * h) ** 2 / 12.0, (2.0 * w) ** 2 / 12.0
+        moments[i] = (4.0 * a * h * w, along * c * c + across * s * s,
+                      along * s * s + across * c * c, (along - across) * c * s)
     flags, release, scatter, notes, reasons = judge(chain, detections, n, settings,
                                            find_release=view != "top", residual=residual,
-                                           weight=moments[:, 0], bar=bars[:, :4])
+                                           weight=moments[:, 0], bar=bars[:, :4],
+                                           joined=followed)
     u, v = chain.u.copy(), chain.v.copy()
     bridged = bridge_gaps(u, v, flags, reasons, chain, settings)
+    if followed.size:
+        notes.append(f"{followed.size} frames before the flight followed by the rod's model into "
+                     f"what it is joined to")
     if bridged:
         notes.append(f"{bridged} frames without a detection inside the object's chain: "
                      f"placed on the path through the clean frames either side "

@@ -24,7 +24,7 @@ from vidtrack.track.ellipse import fit_ellipse
 from vidtrack.track.rod import fit_rod
 from vidtrack.track.path import robust_scale
 
-__all__ = ["Shape", "measure_frame", "chain_shape", "has_highlight"]
+__all__ = ["Shape", "measure_frame", "rod_at", "chain_shape", "has_highlight"]
 
 #: Iterations of the mean shift at most, and the step (px) below which it has converged.
 _ITERATIONS = 12
@@ -117,36 +117,10 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     b = max(shape.minor, 0.5)
     a, b = np.hypot(a, 0.5), np.hypot(b, 0.5)
     reach = int(np.ceil(2.0 * k * a)) + 2
-    rows, cols = frame.shape
     cu, cv = float(det["u"]), float(det["v"])
-    r0, r1 = max(int(cv) - reach, 0), min(int(cv) + reach + 1, rows)
-    c0, c1 = max(int(cu) - reach, 0), min(int(cu) + reach + 1, cols)
-    f = frame[r0:r1, c0:c1].astype(np.float64)
-    bg = background[r0:r1, c0:c1].astype(np.float64)
-    sg = sigma[r0:r1, c0:c1].astype(np.float64)
-    d = f - bg
-    fg = (np.abs(d) > settings.k_grow * sg).astype(np.uint8)
-    shade = None
-    if shadow_test is not None:
-        shade, light = shadow_test(f.astype(np.float32), (fg > 0) & (d < 0),
-                                   window=(r0, r1, c0, c1))
-        if light is None:
-            shade = None
-        else:
-            # (the object read against the background as its shadow dims it)
-            fg[shade] = 0
-            bg = bg * light
-            d = f - bg
-    # the detection's own connected pixels (another object's, apart from it, are not
-    # the object's even where they lie within its kernel), with the pixels beside them:
-    # the object's faint edge
-    n_lab, lab = cv2.connectedComponents(fg, connectivity=8)
-    if n_lab > 2:
-        ly, lx = np.nonzero(lab)
-        near = np.hypot(lx + c0 - cu, ly + r0 - cv) <= max(2.0 * a, 3.0)
-        counts = np.bincount(lab[ly[near], lx[near]], minlength=n_lab)
-        counts[0] = 0
-        fg = (lab == int(np.argmax(counts))).astype(np.uint8) if counts.any() else fg
+    (r0, c0), bg, sg, d, fg, shade, (n_lab, lab) = _crop(
+        frame, background, sigma, (cu, cv), reach, max(2.0 * a, 3.0), settings,
+        shadow_test)
     ys, xs = np.nonzero(cv2.dilate(fg, _KERNEL3))
     if ys.size == 0:
         return cu, cv, 0.0, np.nan, np.nan, np.nan, np.nan, None
@@ -204,10 +178,7 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
         # its centre from the model fitted to the pixels in its kernel (another
         # object's apart from it left out), robustly: a rod's bar, a compact object's
         # ellipse; the mean shift's where the fit fails or does not explain it
-        span = obj - bg
-        clear = np.abs(span) > CLEAR_SIGMAS * sg
-        sign = 1.0 if det["contrast"] >= 0 else -1.0
-        cover = np.where(clear, d / np.where(clear, span, 1.0), sign * d / level)
+        cover = _cover(d, bg, sg, det)
         rod = is_rod(shape)
         if inner is not None:
             cover = np.where(np.isfinite(inner), inner, cover)
@@ -224,15 +195,126 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
                               max_misfit=settings.model_max_misfit)
         if fit is not None:
             cu, cv, fitted, misfit = fit
-            if rod:
-                shape.profile = fitted[4:]
+            if rod and _like(fitted, shape):
+                shape.profile = fitted[4:].copy()
+            blur = [float(x) for x in fitted[6:8]] + [np.nan] * (8 - len(fitted))
             bar = (float(fitted[3]), float(fitted[4]), float(fitted[5]), misfit,
-                   float(fitted[2]))
+                   float(fitted[2]), *blur)
     eu, ev = x - cu, y - cv
     muu = float(np.sum(wi * eu * eu) / sw)
     mvv = float(np.sum(wi * ev * ev) / sw)
     muv = float(np.sum(wi * eu * ev) / sw)
     return cu, cv, sw, muu, mvv, muv, residual, bar
+
+
+#: A rod's bar fitted to a frame is of the object's own shape where its spreads along
+#: and across (the bar's and its blur's) are at most this factor of the chain's: only
+#: then is its profile the next frame's start (a bar fitted to what the rod touched, a
+#: blade's arm, is not; a rod turning end on, shorter, is).
+PROFILE_RATIO = 1.5
+
+
+def _like(fitted, shape):
+    """Whether a bar's spreads along and across are at most the object's
+    (:data:`PROFILE_RATIO`)."""
+    along = np.sqrt(fitted[3] ** 2 / 3.0 + fitted[7] ** 2)
+    across = np.sqrt(fitted[4] ** 2 / 3.0 + fitted[6] ** 2)
+    return (along <= PROFILE_RATIO * max(shape.major, 0.5)
+            and across <= PROFILE_RATIO * max(shape.minor, 0.5))
+
+
+#: :func:`rod_at` holds the rod's half length, half width and blurs across and along
+#: (of the bar's parameters ``u, v, theta, h, w, a, s, s2``) at the chain's own.
+HELD = (3, 4, 6, 7)
+
+
+def rod_at(frame, background, sigma, det, pose, bar, shape, settings, shadow_test=None):
+    """A rod's bar of the chain's own profile fitted to one frame at a predicted pose:
+    its centre, angle and coverage free, its length, width and blurs held
+    (:data:`HELD`), so that what the rod is joined to (a blade it rides) is not taken
+    for more of it.
+
+    Parameters
+    ----------
+    frame, background, sigma : numpy.ndarray
+        As :func:`measure_frame`'s.
+    det : numpy.void
+        A detection of the object itself (its levels: the pixels' coverage is read
+        against them).
+    pose : (float, float, float)
+        The predicted centre (px) and angle (rad).
+    bar : array of 8 floats
+        The bar's parameters (:func:`vidtrack.track.rod.fit_rod`) of the chain's clean
+        frames: the length, width and blurs held, the rest a start.
+    shape : Shape
+    settings : TrackerSettings
+    shadow_test : vidtrack.track.detect.ShadowTest, optional
+
+    Returns
+    -------
+    (float, float, numpy.ndarray, float) or None
+        As :func:`vidtrack.track.rod.fit_rod`.
+    """
+    k = settings.kernel_sigmas
+    a = np.hypot(max(shape.major, 0.5), 0.5)
+    b = np.hypot(max(shape.minor, 0.5), 0.5)
+    cu, cv, theta = pose
+    (r0, c0), bg, sg, d, fg, _shade, (n_lab, lab) = _crop(
+        frame, background, sigma, (cu, cv), int(np.ceil(2.0 * k * a)) + 2,
+        max(2.0 * a, 3.0), settings, shadow_test)
+    cover = _cover(d, bg, sg, det)
+    px, py, pc, _ = _kernel_pixels(cover, fg, n_lab, lab, (r0, c0), (cu, cv, theta),
+                                   (a, b), k, None)
+    return fit_rod(px, py, pc, (cu, cv, theta, bar[3], bar[4]), profile=bar[4:],
+                   cap_px=settings.bar_cap_px, hold=HELD)
+
+
+def _crop(frame, background, sigma, centre, reach, near_px, settings, shadow_test):
+    """The frame round ``centre`` (``reach`` px each way): its origin (row, column), the
+    background (dimmed where the shadow test finds a shadow) and noise there, the
+    difference, the foreground (beyond ``k_grow``; no shadow's) as the connected
+    pixels that hold the most of those within ``near_px`` of the centre (another
+    object's, apart from the object, are not its own even where they lie within its
+    kernel), the shadow's pixels (or None) and the labelling ``(count, labels)``."""
+    rows, cols = frame.shape
+    cu, cv = centre
+    r0, r1 = max(int(cv) - reach, 0), min(int(cv) + reach + 1, rows)
+    c0, c1 = max(int(cu) - reach, 0), min(int(cu) + reach + 1, cols)
+    f = frame[r0:r1, c0:c1].astype(np.float64)
+    bg = background[r0:r1, c0:c1].astype(np.float64)
+    sg = sigma[r0:r1, c0:c1].astype(np.float64)
+    d = f - bg
+    fg = (np.abs(d) > settings.k_grow * sg).astype(np.uint8)
+    shade = None
+    if shadow_test is not None:
+        shade, light = shadow_test(f.astype(np.float32), (fg > 0) & (d < 0),
+                                   window=(r0, r1, c0, c1))
+        if light is None:
+            shade = None
+        else:
+            # (the object read against the background as its shadow dims it)
+            fg[shade] = 0
+            bg = bg * light
+            d = f - bg
+    n_lab, lab = cv2.connectedComponents(fg, connectivity=8)
+    if n_lab > 2:
+        ly, lx = np.nonzero(lab)
+        near = np.hypot(lx + c0 - cu, ly + r0 - cv) <= near_px
+        counts = np.bincount(lab[ly[near], lx[near]], minlength=n_lab)
+        counts[0] = 0
+        fg = (lab == int(np.argmax(counts))).astype(np.uint8) if counts.any() else fg
+    return (r0, c0), bg, sg, d, fg, shade, (n_lab, lab)
+
+
+def _cover(d, bg, sg, det):
+    """Each pixel's coverage by the object: its difference from the background over the
+    object's own contrast there (``obj_level``), or over the detection's ``level`` where
+    that contrast is within ``CLEAR_SIGMAS`` of the noise."""
+    level = float(det["level"]) if np.isfinite(det["level"]) and det["level"] > 0 else 1.0
+    span = float(det["obj_level"]) - bg
+    clear = np.abs(span) > CLEAR_SIGMAS * sg
+    sign = 1.0 if det["contrast"] >= 0 else -1.0
+    return np.where(clear, d / np.where(clear, span, 1.0), sign * d / level)
 
 
 def _highlight_interior(d, bg, grow, obj, ys, xs, w, core):

@@ -12,8 +12,7 @@ import numpy as np
 
 from vidtrack.track.background import MAD_TO_SIGMA
 
-__all__ = ["local_quadratic", "robust_scale", "MAD_TO_SIGMA"]
-
+__all__ = ["local_quadratic", "robust_scale", "extrapolate", "MAD_TO_SIGMA"]
 
 
 def robust_scale(x, *, floor=0.0):
@@ -23,6 +22,21 @@ def robust_scale(x, *, floor=0.0):
     if x.size == 0:
         return float(floor)
     return max(float(MAD_TO_SIGMA * np.median(np.abs(x - np.median(x)))), float(floor))
+
+
+def extrapolate(t, u, v, at):
+    """The point at time ``at`` carried on from the points ``(u, v)`` at times ``t``
+    (ascending, the nearest last): a quadratic in time through them where there are
+    three or more over at least two frames, a line through the last two, else the last."""
+    t = np.asarray(t, float)
+    u, v = np.asarray(u, float), np.asarray(v, float)
+    if t.size >= 3 and t[-1] - t[0] >= 2:
+        return (float(np.polyval(np.polyfit(t - t[-1], u, 2), at - t[-1])),
+                float(np.polyval(np.polyfit(t - t[-1], v, 2), at - t[-1])))
+    if t.size >= 2:
+        r = (at - t[-1]) / (t[-1] - t[-2])
+        return float(u[-1] + r * (u[-1] - u[-2])), float(v[-1] + r * (v[-1] - v[-2]))
+    return float(u[-1]), float(v[-1])
 
 
 def local_quadratic(t, y, window, *, leave_out=True, weights=None, leverage=False,

@@ -139,7 +139,7 @@ def _rms(r):
     return float(np.sqrt(np.mean(r * r))) if r.size else 0.0
 
 
-def fit_rod(x, y, cover, start, profile=None, measured=None, cap_px=2.0):
+def fit_rod(x, y, cover, start, profile=None, measured=None, cap_px=2.0, hold=()):
     """The bar fitted to the coverage ``cover`` at pixel centres ``(x, y)``, from
     ``start = (u, v, theta, half_length, half_width)`` and, where given, ``profile``
     (the half width, coverage and blurs across and along of the bar fitted to the frame
@@ -147,7 +147,10 @@ def fit_rod(x, y, cover, start, profile=None, measured=None, cap_px=2.0):
     runs off. ``measured`` (bool per pixel, default all): the pixels whose coverage was
     measured, not filled in (a highlight's): only they count towards the misfit.
     ``cap_px`` (``bar_cap_px``): how far beyond the bar's ends its misfit is also taken
-    (something in line with an end moves it, and the centre along).
+    (something in line with an end moves it, and the centre along). ``hold``: the
+    indices of the parameters (of ``u, v, theta, h, w, a, s, s2``) held at their start
+    (the rod's own length, width and blurs, where what it is joined to could be taken
+    for more of it).
 
     Returns
     -------
@@ -173,14 +176,23 @@ def fit_rod(x, y, cover, start, profile=None, measured=None, cap_px=2.0):
                    _BLUR_ALONG[1]])
     p0 = np.clip(p0, lo, hi)
     cached = _Cached(x, y, cover)
+    free = np.setdiff1d(np.arange(p0.size), np.asarray(hold, int))
+
+    def full(q):
+        p = p0.copy()
+        p[free] = q
+        return p
+
     try:
-        res = least_squares(cached.residual, p0, jac=cached.jacobian, bounds=(lo, hi),
-                            loss=LOSS, f_scale=F_SCALE, xtol=1e-5, ftol=1e-5,
-                            max_nfev=60)
+        res = least_squares(lambda q: cached.residual(full(q)), p0[free],
+                            jac=lambda q: cached.jacobian(full(q))[:, free],
+                            bounds=(lo[free], hi[free]), loss=LOSS, f_scale=F_SCALE,
+                            xtol=1e-5, ftol=1e-5, max_nfev=60)
     except (ValueError, np.linalg.LinAlgError):
         return None
     if not (res.success and np.isfinite(res.x).all()):
         return None
+    res.x = full(res.x)
     u, v = float(res.x[0]), float(res.x[1])
     if math.hypot(u - u0, v - v0) > MAX_SHIFT * h0:
         return None

@@ -16,7 +16,7 @@ from vidtrack.errors import VidtrackError
 __all__ = ["TrackerSettings", "ALGORITHM_VERSION"]
 
 #: Changes whenever the flight tracker's results may change for the same settings.
-ALGORITHM_VERSION = "flight-5"
+ALGORITHM_VERSION = "flight-6"
 
 
 @dataclass(frozen=True)
@@ -167,6 +167,11 @@ class TrackerSettings:
         the turning rotor). At a half, a 320 x 96 px top view, the rotor in four of its
         nine voting cells, lost 45 of 372 frames' shifts (0.16 px RMS from the camera's
         motion); at a third, none (0.07 px).
+    joined_cover : float
+        A rod followed by its model into what it is joined to before its flight (a
+        straw riding a blade, :mod:`vidtrack.track.joined`) is seen in a frame only where
+        the bar fitted there covers at least this share of the flight's coverage
+        (a share): less, it is hidden behind what it rides, or gone.
     """
 
     k_sigma: float = 5.0
@@ -205,6 +210,7 @@ class TrackerSettings:
     model_max_misfit: float = 0.12
     bar_cap_px: float = 2.0
     camera_agree_share: float = 1.0 / 3.0
+    joined_cover: float = 0.5
 
     def __post_init__(self):
         for f in fields(self):
@@ -223,7 +229,7 @@ class TrackerSettings:
             raise VidtrackError(f"track.release_push_deg must be at most 180 (degrees), got "
                                 f"{self.release_push_deg:g}")
         for name in ("highlight_one_side", "highlight_frames", "highlight_core",
-                     "camera_agree_share"):
+                     "camera_agree_share", "joined_cover"):
             if getattr(self, name) > 1.0:
                 raise VidtrackError(f"track.{name} must be at most 1 (a share), got "
                                     f"{getattr(self, name):g}")

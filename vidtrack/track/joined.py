@@ -1,0 +1,114 @@
+"""Step 4b of the flight tracker: a rod followed, by its own model, into what it is joined to.
+
+A straw riding a blade before its release is one detection with the blade: the chain's
+growth (:mod:`vidtrack.track.choose`) takes a detection of the object's own size near
+its predicted point, so the chain starts only where the straw has left the blade, and
+the release is looked for where there is no ride left to see. Before the chain's first
+frame of flight (its first frame the flight explains), frame by frame back in time, the
+rod is followed by its model instead: its point predicted by a quadratic in time through
+the ``predict_frames`` points followed after it (:func:`vidtrack.track.path.extrapolate`),
+its angle carried from the frame after it; there the bar of the flight's own length,
+width and blurs (the median of its first ``predict_frames`` frames measured by a bar) is
+fitted to the frame's pixels, its centre, angle and coverage free
+(:func:`vidtrack.track.measure.rod_at`). What the rod is joined to, of another tone or
+beside it, is not explained by a bar of the rod's length, and weighs little in the
+robust fit.
+
+A frame is the rod's when the fit converges within :data:`~vidtrack.track.rod.MAX_SHIFT`
+half lengths of the prediction and covers at least ``joined_cover`` of the flight's
+coverage (a rod hidden behind what it is joined to is not seen, whatever fits); the
+first frame where it is not ends the following, and at most ``release_window`` frames
+are followed. A frame followed takes the detection its point lies in; it is judged like
+the chain's other frames (:mod:`vidtrack.track.flag`: its bar's misfit says what
+overlaps it) and its path is where the release is looked for.
+"""
+
+import numpy as np
+
+from vidtrack.track.measure import rod_at
+from vidtrack.track.path import extrapolate
+
+__all__ = ["follow_back", "BAR_COLUMNS"]
+
+#: The per-frame bar of a rod (:func:`vidtrack.track.measure.measure_frame`): half
+#: length, half width (px), coverage, misfit, angle (rad), blurs across and along (px).
+BAR_COLUMNS = ("h", "w", "a", "misfit", "angle", "s", "s2")
+
+
+def _inside(dets, u, v):
+    """The detection whose ellipse of second moments holds ``(u, v)`` nearest its
+    centre (in its own spreads; a uniform blob's edge lies at two), or -1."""
+    if len(dets) == 0:
+        return -1
+    du, dv = u - dets["u"], v - dets["v"]
+    muu, mvv, muv = (np.maximum(dets["muu"], 0.25), np.maximum(dets["mvv"], 0.25),
+                     dets["muv"])
+    det = np.maximum(muu * mvv - muv * muv, 1e-6)
+    m2 = (mvv * du * du - 2.0 * muv * du * dv + muu * dv * dv) / det
+    j = int(np.argmin(m2))
+    return j if m2[j] <= 4.0 else -1
+
+
+def follow_back(get, detections, chain, bars, detector, shape, settings):
+    """Follow a rod's chain back in time from its first frame of flight, by its model.
+
+    Parameters
+    ----------
+    get : callable
+        Frame position to its grey frame (steadied), or None where it is not at hand.
+    detections : list of numpy.ndarray
+    chain : vidtrack.track.choose.Chain
+        Its ``pick``, ``u``, ``v`` and per-frame fields are changed in place for the
+        frames followed.
+    bars : numpy.ndarray
+        ``(n, 7)``: per frame the bar measured (:data:`BAR_COLUMNS`); set for the frames
+        followed.
+    detector : vidtrack.track.detect.Detector
+    shape : vidtrack.track.measure.Shape
+    settings : vidtrack.track.settings.TrackerSettings
+
+    Returns
+    -------
+    numpy.ndarray of int
+        The frame positions followed.
+    """
+    flight = np.flatnonzero(chain.explained)
+    k = settings.predict_frames
+    none = np.zeros(0, int)
+    if flight.size < 3:
+        return none
+    first = int(flight[0])
+    lead = flight[:k]
+    lead = lead[np.isfinite(bars[lead, :3]).all(axis=1) & np.isfinite(bars[lead, 5:]).all(axis=1)]
+    if lead.size < 3:
+        return none
+    h, w, a, _misfit, _angle, s, s2 = np.median(bars[lead], axis=0)
+    template = np.array([np.nan, np.nan, np.nan, h, w, a, s, s2])
+    ref = detections[first][chain.pick[first]]
+    t = [int(i) for i in flight[:k]][::-1]          # (the nearest last)
+    pu = [float(chain.u[i]) for i in t]
+    pv = [float(chain.v[i]) for i in t]
+    theta = float(bars[first, 4]) if np.isfinite(bars[first, 4]) else 0.0
+    followed = []
+    for fi in range(first - 1, max(first - settings.release_window, 0) - 1, -1):
+        frame = get(fi)
+        if frame is None or len(detections[fi]) == 0:
+            break
+        u0, v0 = extrapolate([-x for x in t[-k:]], pu[-k:], pv[-k:], -fi)
+        fit = rod_at(frame, detector.bg, detector.sigma, ref, (u0, v0, theta), template,
+                     shape, settings, shadow_test=detector.shadow_test)
+        if fit is None or fit[2][5] < settings.joined_cover * a:
+            break
+        u, v, p, misfit = fit
+        j = _inside(detections[fi], u, v)
+        if j < 0:
+            break
+        theta = float(p[2])
+        followed.append((fi, j, u, v, (p[3], p[4], p[5], misfit, p[2], p[6], p[7])))
+        t.append(fi)
+        pu.append(u)
+        pv.append(v)
+    for fi, j, u, v, bar in followed:
+        chain.take(fi, j, detections, at=(u, v))
+        bars[fi] = bar
+    return np.array([f[0] for f in followed], int)
