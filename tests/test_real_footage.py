@@ -125,12 +125,13 @@ def _quadratic_g(t, y):
     return -2.0 * np.polyfit(t, y, 2)[0]
 
 
-def test_balltoss_ball_after_the_hand_and_g(real_footage):
+@pytest.mark.parametrize("engine", ["rules", "flight"])
+def test_balltoss_ball_after_the_hand_and_g(real_footage, engine):
     folder = real_footage / "balltoss"
     _need(folder / "BallTossOut.mp4", folder / "balltoss_tracker_points.txt")
     ref = np.loadtxt(folder / "balltoss_tracker_points.txt", skiprows=2)   # t, x, y (m)
     g_ref = _quadratic_g(ref[:, 0], ref[:, 2])
-    tr = _track(folder / "BallTossOut.mp4", 30)
+    tr = _track(folder / "BallTossOut.mp4", 30, engine=engine)
     d = tr.data
     ok = tr.usable
     u, v, t = d["u_px"].to_numpy(), d["v_px"].to_numpy(), d["t_s"].to_numpy()

@@ -25,7 +25,10 @@ Against the chain's own clean frames, two tests with one threshold, ``k_flag``:
   even joined to its detection, does not touch the bar; something over it does.
 
 A detection touching the frame's border is BORDER; frames inside the chain's span
-without a detection are LOST.
+without a detection are LOST, and so are the frames at either end of the chain that the
+path test rejects (in view): what the chain took where the object was not seen, a hand
+before the throw, a racket after a hit, is not the object, and its position is left
+out.
 
 The **release** (front views): where the path's acceleration drops at a stroke, from the
 ride on a blade or in a hand to free flight (:func:`vidtrack.track.release.find_release`:
@@ -93,6 +96,21 @@ def _path_outliers(idx, uv, settings, start):
             break
         ok = new
     return ~ok, scatter
+
+
+def _end_runs(mask):
+    """The leading and the trailing runs of True of ``mask`` (all of it where it is all
+    True)."""
+    out = np.zeros(mask.size, bool)
+    if mask.size == 0:
+        return out
+    false = np.flatnonzero(~mask)
+    if false.size == 0:
+        out[:] = True
+        return out
+    out[:false[0]] = True
+    out[false[-1] + 1:] = True
+    return out
 
 
 def _neighbour_median(x, window):
@@ -223,6 +241,9 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     flags[idx[grown]] |= APPEARANCE
     off, scatter = _path_outliers(idx, uv, settings, ~grown)
     flags[idx[off]] |= OUTLIER
+    # (the chain's ends off its path, in view: what the chain took where the object was
+    # not seen, a hand before the throw, a racket after a hit, is not the object)
+    astray = _end_runs(off & ((flags[idx] & BORDER) == 0))
     reasons["touched"][idx[touched]] = True
     reasons["hidden"][idx[hidden]] = True
     reasons["off-path"][idx[off]] = True
@@ -243,6 +264,12 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     if chain.shadow[idx].mean() <= MAJORITY:
         flags[idx[chain.shadow[idx]]] |= APPEARANCE
         reasons["shadow"][idx[chain.shadow[idx]]] = True
+    if astray.any() and not astray.all():
+        flags[idx[astray]] = LOST
+        for hit in reasons.values():
+            hit[idx[astray]] = False
+        notes.append(f"{int(astray.sum())} frames at the ends of the object's chain, off its "
+                     f"path, left out (not the object)")
     first, last = idx[0], idx[-1]
     flags[:first] = LOST
     flags[last + 1:] = LOST

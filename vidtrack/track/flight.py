@@ -27,7 +27,7 @@ import threading
 import numpy as np
 
 from vidtrack.errors import TrackError
-from vidtrack.track._flags import BLADE
+from vidtrack.track._flags import BLADE, LOST
 from vidtrack.track.background import estimate_background, gather_samples
 from vidtrack.track.choose import choose
 from vidtrack.track.detect import Detector
@@ -288,6 +288,8 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
                                            weight=moments[:, 0], bar=bars[:, :4],
                                            joined=followed)
     u, v = chain.u.copy(), chain.v.copy()
+    u[flags == LOST] = np.nan
+    v[flags == LOST] = np.nan
     bridged = bridge_gaps(u, v, flags, reasons, chain, settings)
     if followed.size:
         notes.append(f"{followed.size} frames before the flight followed by the rod's model into "
