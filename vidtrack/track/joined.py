@@ -1,14 +1,16 @@
 """Step 4b of the flight tracker: a rod followed, by its own model, into what it is joined to.
 
-A straw riding a blade before its release is one detection with the blade: the chain's
-growth (:mod:`vidtrack.track.choose`) takes a detection of the object's own size near
-its predicted point, so the chain starts only where the straw has left the blade, and
-the release is looked for where there is no ride left to see. Before the chain's first
-frame of flight (its first frame the flight explains), frame by frame back in time, the
-rod is followed by its model instead: its point predicted by a quadratic in time through
+A straw riding a blade before its release is one detection with the blade, or its
+piece clear of the blade is: the chain's growth (:mod:`vidtrack.track.choose`) takes a
+detection of the object's own size near its predicted point, so the chain starts only
+where the straw has left the blade, or takes the piece, and the release is looked for
+where there is no ride left to see. Before the flight's first clean frame (the first
+frame the flight explains whose bar's misfit and whose detection's size lie within
+``k_flag`` robust scatters of the flight's: the rod whole and alone), frame by frame
+back in time, the rod is followed by its model instead: its point predicted by a quadratic in time through
 the ``predict_frames`` points followed after it (:func:`vidtrack.track.path.extrapolate`),
 its angle carried from the frame after it; there the bar of the flight's own length,
-width and blurs (the median of its first ``predict_frames`` frames measured by a bar) is
+width and blurs (the median of its first ``predict_frames`` clean frames) is
 fitted to the frame's pixels, its centre, angle and coverage free
 (:func:`vidtrack.track.measure.rod_at`). What the rod is joined to, of another tone or
 beside it, is not explained by a bar of the rod's length, and weighs little in the
@@ -26,7 +28,7 @@ overlaps it) and its path is where the release is looked for.
 import numpy as np
 
 from vidtrack.track.measure import rod_at
-from vidtrack.track.path import extrapolate
+from vidtrack.track.path import extrapolate, robust_scale
 
 __all__ = ["follow_back", "BAR_COLUMNS"]
 
@@ -47,6 +49,22 @@ def _inside(dets, u, v):
     m2 = (mvv * du * du - 2.0 * muv * du * dv + muu * dv * dv) / det
     j = int(np.argmin(m2))
     return j if m2[j] <= 4.0 else -1
+
+
+def _clean(chain, bars, flight, settings):
+    """Which of the flight's frames show the rod whole and alone: measured by a bar,
+    whose misfit, and whose detection's log size, lie within ``k_flag`` robust scatters
+    of the flight's (at least ``residual_floor`` and ``size_floor``)."""
+    barred = np.isfinite(bars[flight, :4]).all(axis=1) & np.isfinite(bars[flight, 5:]).all(axis=1)
+    if not barred.any():
+        return barred
+    misfit = bars[flight, 3]
+    logs = np.log(np.maximum(chain.size[flight], 1.0))
+    ok = barred.copy()
+    for x, floor in ((misfit, settings.residual_floor), (logs, settings.size_floor)):
+        med = np.median(x[barred])
+        ok &= np.abs(x - med) <= settings.k_flag * robust_scale(x[barred], floor=floor)
+    return ok
 
 
 def follow_back(get, detections, chain, bars, detector, shape, settings):
@@ -75,17 +93,15 @@ def follow_back(get, detections, chain, bars, detector, shape, settings):
     flight = np.flatnonzero(chain.explained)
     k = settings.predict_frames
     none = np.zeros(0, int)
-    if flight.size < 3:
+    clean = flight[_clean(chain, bars, flight, settings)]
+    if clean.size < 3:
         return none
-    first = int(flight[0])
-    lead = flight[:k]
-    lead = lead[np.isfinite(bars[lead, :3]).all(axis=1) & np.isfinite(bars[lead, 5:]).all(axis=1)]
-    if lead.size < 3:
-        return none
+    first = int(clean[0])
+    lead = clean[:k]
     h, w, a, _misfit, _angle, s, s2 = np.median(bars[lead], axis=0)
     template = np.array([np.nan, np.nan, np.nan, h, w, a, s, s2])
     ref = detections[first][chain.pick[first]]
-    t = [int(i) for i in flight[:k]][::-1]          # (the nearest last)
+    t = [int(i) for i in lead][::-1]                # (the nearest last)
     pu = [float(chain.u[i]) for i in t]
     pv = [float(chain.v[i]) for i in t]
     theta = float(bars[first, 4]) if np.isfinite(bars[first, 4]) else 0.0
