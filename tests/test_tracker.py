@@ -13,8 +13,9 @@ from vidtrack.track.background import Background
 from vidtrack.errors import TrackError
 from vidtrack.footage import open_source
 from vidtrack.synth import SynthSpec, straw_pose
-from vidtrack.track.tracker import (BLADE, BORDER, FLAGS, LOST, MERGED, PRE_RELEASE, PREDICTED,
-                              TRACK_COLUMNS, describe_flags, track)
+from vidtrack.track.tracker import (BLADE, BORDER, FLAGS, LOST, MERGED, OPTIONAL_COLUMNS,
+                              PRE_RELEASE, PREDICTED, TRACK_COLUMNS, describe_flags,
+                              track)
 from vidtrack.track._pass import _release_evidence
 from vidtrack.track._coverage import measure
 from vidtrack.track._segment import Segmenter, read_level, work_margin
@@ -74,7 +75,10 @@ TRUTH_RMS = {"front": 0.06, "top": 0.06}
 @pytest.mark.parametrize("view", ["front", "top"])
 def test_centroid_rms_on_unflagged_frames(default_run, view):
     tr, per_frame, _ = _track_view(default_run, view)
-    assert list(tr.data.columns) == list(TRACK_COLUMNS)
+    # the track's columns, then any of the optional ones (the flight tracker's reason, a
+    # rod's ends)
+    assert list(tr.data.columns[:len(TRACK_COLUMNS)]) == list(TRACK_COLUMNS)
+    assert set(tr.data.columns[len(TRACK_COLUMNS):]) <= set(OPTIONAL_COLUMNS) | {"reason"}
     assert len(tr.data) == len(per_frame)
     err = centroid_errors(tr, per_frame)
     ok = tr.usable

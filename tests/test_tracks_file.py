@@ -133,7 +133,7 @@ def test_read_errors(tmp_path):
 
 #: docs/tracker.md's flag table (bit -> name), typed from the documentation.
 FLAG_NAMES = {1: "BORDER", 2: "BLADE", 4: "MERGED", 8: "LOST", 16: "PREDICTED",
-              32: "PRE_RELEASE", 64: "OUTLIER"}
+              32: "PRE_RELEASE", 64: "OUTLIER", 128: "APPEARANCE", 256: "EXCLUDED"}
 TRACKS_CSV_FIRST = ["view", "frame", "t_s", "u_px", "v_px", "flags"]
 
 
@@ -157,7 +157,9 @@ def _assert_tables_match_h5(folder):
     views, world = _h5_contents(folder / "tracks.h5")
     table = pd.read_csv(folder / "tracks.csv")
     assert list(table.columns[:6]) == TRACKS_CSV_FIRST
-    assert table.columns[-1] == "flag_names"
+    # flag_names last, but for the flight tracker's reason after it (docs/fit-outputs.md)
+    last = ["flag_names", "reason"] if "reason" in table else ["flag_names"]
+    assert list(table.columns[-len(last):]) == last
     for cols in views.values():
         # every per-frame dataset of the view, and nothing else (no index column)
         assert set(table.columns) == set(cols) | {"view", "flag_names"}
@@ -170,6 +172,11 @@ def _assert_tables_match_h5(folder):
             if values.dtype.kind == "i":
                 assert got.dtype.kind == "i", (v, c)             # integers stay integers
                 assert (got == values).all(), (v, c)
+            elif values.dtype.kind in "SO":
+                # text (the flight tracker's reason): UTF-8 in tracks.h5, an empty cell
+                # for an empty text
+                want = [x.decode() if isinstance(x, bytes) else str(x) for x in values]
+                assert rows[c].fillna("").tolist() == want, (v, c)
             else:
                 # the same float64 bits (NaN where tracks.h5 has NaN)
                 np.testing.assert_array_equal(got, values, err_msg=f"{v} {c}", strict=True)
