@@ -444,7 +444,8 @@ def choose(detections, tracklets, settings, *, target=None, frame_numbers=None,
     chains = [c for c in chains if c.score > 0]
     if not chains:
         moving = sum(1 for tr in tracklets if len(tr) >= settings.link_min_frames)
-        raise TrackError(f"{what} not found: of {moving} things followed over "
+        raise TrackError(f"{what} never appears in flight in frames {int(frame_numbers[0])}.."
+                         f"{int(frame_numbers[-1])}: of {moving} things followed over "
                          f"{settings.link_min_frames} frames or more, none travelled "
                          f"{settings.min_travel_sizes:g} of its sizes along a smooth path; "
                          f"add target = {{ frame = F, at_px = [u, v] }} for {what} to the "
