@@ -128,31 +128,22 @@ def _steadied(frames, steady):
 
 
 def _measure(source, held, detector, detections, chain, shape, settings, cancel,
-             steady=None, follow=False):
+             steady=None):
     """Each chain frame measured by the object's shape (:mod:`vidtrack.track.measure`):
     the chain's positions are replaced; returns per frame position (weight, muu, mvv,
     muv), the residual share and the model's (half length, half width, coverage,
     misfit, angle, blurs; :data:`~vidtrack.track.joined.BAR_COLUMNS`) (NaN where the
-    chain has no detection or no model). Footage not held
-    is decoded again for it, one frame at a time (with ``follow``, the ``release_window``
-    frames before its flight are kept); returns also a frame position's frame, for those frames (None
-    for the others of footage not held)."""
+    chain has no detection or no model). Footage not held is decoded again for it, one
+    frame at a time."""
     n = len(detections)
     moments = np.full((n, 4), np.nan)
     residual = np.full(n, np.nan)
     bars = np.full((n, len(BAR_COLUMNS)), np.nan)
     wanted = set(int(i) for i in chain.frames)
-    # (a rod's frames before its flight are kept, for following it back by its model)
-    flight = np.flatnonzero(chain.explained)
-    lead = (range(max(int(flight[0]) - settings.release_window, 0), int(flight[0]))
-            if held is None and follow and flight.size else range(0))
-    kept = {}
     highlight = has_highlight([detections[i][chain.pick[i]] for i in chain.frames],
                               settings)
     frames = held if held is not None else _steadied(_frames(source, cancel), steady)
     for i, frame in enumerate(frames):
-        if i in lead:
-            kept[i] = frame
         if i not in wanted:
             continue
         det = detections[i][chain.pick[i]]
@@ -169,7 +160,22 @@ def _measure(source, held, detector, detections, chain, shape, settings, cancel,
             bars[i] = bar
         if i >= chain.frames[-1]:
             break
-    return moments, residual, bars, (held.__getitem__ if held is not None else kept.get)
+    return moments, residual, bars
+
+
+def _frames_before(source, steady, window):
+    """A frame position's frame (steadied) for following back in footage not held: the
+    first call, for the nearest frame, decodes the ``window`` frames up to it, once
+    (memory bounded by ``window``, not by the footage's length); None outside them."""
+    cache = {}
+
+    def get(i):
+        if not cache:
+            lo = max(i + 1 - window, 0)
+            for k, frame in enumerate(source[lo:i + 1], start=lo):
+                cache[k] = frame if steady is None else steady.warp(k, frame)
+        return cache.get(i)
+    return get
 
 
 def rod_ends(u, v, half_length, angle):
@@ -272,8 +278,10 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     rod = is_rod(shape)     # (before the measurement refines the shape's profile)
     # (a rod is followed back into what it rides where its release is looked for)
     follow = rod and view != "top"
-    moments, residual, bars, get = _measure(source, held, detector, detections, chain,
-                                            shape, settings, cancel, steady, follow=follow)
+    moments, residual, bars = _measure(source, held, detector, detections, chain, shape,
+                                       settings, cancel, steady)
+    get = (held.__getitem__ if held is not None
+           else _frames_before(source, steady, settings.release_window))
     followed = (follow_back(get, detections, chain, bars, detector, shape, settings)
                 if follow else np.zeros(0, int))
     del held, get
