@@ -6,7 +6,9 @@ the test modules that ask for the same parameters. Their ground truth is the ren
 """
 
 import atexit
+import csv
 import json
+import math
 import shutil
 import tempfile
 from pathlib import Path
@@ -60,3 +62,30 @@ def centroid_errors(track, per_frame):
     d = track.data
     return np.hypot(d["u_px"].to_numpy() - per_frame["u_px"].to_numpy(dtype=float),
                     d["v_px"].to_numpy() - per_frame["v_px"].to_numpy(dtype=float))
+
+def unflagged(run):
+    """A fitted run's unflagged points from its tracks.csv: {view: [(frame, u, v)]}."""
+    with open(run / "vidtrack" / "tracks.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    out = {}
+    for r in rows:
+        if int(r["flags"]) == 0 and r["u_px"] not in ("", "nan", "NaN"):
+            out.setdefault(r["view"], []).append((int(r["frame"]), float(r["u_px"]),
+                                                  float(r["v_px"])))
+    return out
+
+
+def check_behind_the_post(run, res, touched):
+    """The fit went through; the straw went behind the post in ``touched`` frames or
+    more; no front frame with 5 % of it behind the post is unflagged, and the unflagged
+    ones lie within 0.25 px of the straw's coverage centroid."""
+    assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
+    truth = json.loads((run / "truth.json").read_text())
+    tab = truth["views"]["front"]["per_frame"]
+    share = np.asarray(tab["post_hidden"], float)
+    errs = {i: math.hypot(u - tab["u_coverage_px"][i], v - tab["v_coverage_px"][i])
+            for i, u, v in unflagged(run)["front"]}
+    assert (share > 0.02).sum() >= touched
+    behind = set(np.flatnonzero(share >= 0.05))
+    assert not behind & set(errs), sorted(behind & set(errs))
+    assert max(errs.values()) < 0.25, max(errs.values())

@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 from conftest import assert_k_within
+from synth_runs import check_behind_the_post, unflagged
 # BASE: the run every end-to-end case renders (the scale of tests/test_cli_fit.py), 372
 # frames a view; CASES: each case's options and the distractor columns of truth.json it
 # adds. The scoreboard (vidtrack bench track --real) scores the same scenes.
@@ -351,17 +352,6 @@ def fitted(tmp_path_factory):
     return get
 
 
-def _unflagged(run):
-    with open(run / "vidtrack" / "tracks.csv", newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    out = {}
-    for r in rows:
-        if int(r["flags"]) == 0 and r["u_px"] not in ("", "nan", "NaN"):
-            out.setdefault(r["view"], []).append((int(r["frame"]), float(r["u_px"]),
-                                                  float(r["v_px"])))
-    return out
-
-
 #: Cases the tracker does not yet pass, with what was measured.
 _XFAIL = {}
 
@@ -402,7 +392,7 @@ def _check_fit_against_truth(fitted, name, engine=None):
     assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
     truth = json.loads((run / "truth.json").read_text())
     record = json.loads(res.stdout)
-    tracked = _unflagged(run)
+    tracked = unflagged(run)
     kinds = CASES[name][1]
     for view, pts in tracked.items():
         tab = truth["views"][view]["per_frame"]
@@ -506,7 +496,7 @@ def test_a_highlighted_straw_with_a_rider_across_it_fits_with_a_target(
     assert_k_within(record, truth["truth"]["k"])
     errs = {view: [math.hypot(u - truth["views"][view]["per_frame"]["u_coverage_px"][i],
                               v - truth["views"][view]["per_frame"]["v_coverage_px"][i])
-                   for i, u, v in pts] for view, pts in _unflagged(out).items()}
+                   for i, u, v in pts] for view, pts in unflagged(out).items()}
     assert len(errs["top"]) >= 0.5 * len(top["frame"]), len(errs["top"])
     assert max(errs["front"]) <= 0.5
     assert max(errs["top"]) <= 0.8 and np.percentile(errs["top"], 95) <= 0.5
@@ -518,36 +508,6 @@ def test_a_highlighted_straw_with_a_rider_across_it_fits_with_a_target(
 # 5.3 mm/px: a line 19 px long and 1.1 px wide, whose width is the pixel grid's (0.4 to
 # 2 px by its moments as it moves across a row). The cases above draw a 5 px straw.
 
-#: case -> (options, the least share of each view's frames from the release on that
-#: stays unflagged); every unflagged frame within 0.5 px, k within the tolerances
-THIN = {
-    "plain": ([], 0.85),
-    "dark": (["--straw-polarity", "dark"], 0.85),
-    "person": (["--person-at-side"], 0.85),
-    "riding": (["--rider", "riding"], 0.5),
-    "crossing": (["--rider", "crossing"], 0.5),
-    "shadow": (["--shadow", "4,0.4,1.5"], 0.5),
-    "hard": (["--shadow", "4,0.4,1.5", "--rider", "crossing", "--person-at-side"], 0.4),
-    # a post narrower than the straw: never hidden whole, it is cut in two pieces
-    "post": (["--post", "0.6,6"], 0.5),
-}
-
-def _check_behind_the_post(run, res, touched):
-    """The fit went through; the straw went behind the post in ``touched`` frames or
-    more; no front frame with 5 % of it behind the post is unflagged, and the unflagged
-    ones lie within 0.25 px of the straw's coverage centroid."""
-    assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
-    truth = json.loads((run / "truth.json").read_text())
-    tab = truth["views"]["front"]["per_frame"]
-    share = np.asarray(tab["post_hidden"], float)
-    errs = {i: math.hypot(u - tab["u_coverage_px"][i], v - tab["v_coverage_px"][i])
-            for i, u, v in _unflagged(run)["front"]}
-    assert (share > 0.02).sum() >= touched
-    behind = set(np.flatnonzero(share >= 0.05))
-    assert not behind & set(errs), sorted(behind & set(errs))
-    assert max(errs.values()) < 0.25, max(errs.values())
-
-
 def test_a_straw_going_behind_the_post_and_out_is_flagged_while_part_of_it_is_hidden(
         fitted):
     """The straw (45 px long, 3.4 px thick, turning) goes behind a 10 px post, is lost
@@ -557,47 +517,7 @@ def test_a_straw_going_behind_the_post_and_out_is_flagged_while_part_of_it_is_hi
     frames it was hidden is 1.4 px off, and a straw still growing at a stroke is still
     coming out. Before: 23 frames coming out unflagged up to 15.4 px off, k1 28 % off,
     exit 0 (418509c: 2 frames at 0.77 px)."""
-    _check_behind_the_post(*fitted("post"), 20)
-
-
-@pytest.fixture(scope="module")
-def fitted_thin(tmp_path_factory):
-    from conftest import run_vidtrack
-
-    cache = {}
-
-    def get(name):
-        if name not in cache:
-            out = tmp_path_factory.mktemp(f"thin_{name}") / "run"
-            res = run_vidtrack("synth", out, *THIN[name][0], "-q")
-            assert res.returncode == 0, res.stderr
-            cache[name] = (out, run_vidtrack("fit", out, "--json", "--no-report", "-q"))
-        return cache[name]
-    return get
-
-
-@pytest.mark.parametrize("name", list(THIN))
-def test_thin_straw_at_the_default_scale(fitted_thin, name):
-    """Both views tracked in most frames, every unflagged frame within 0.5 px of the
-    straw's own coverage centroid, k as tolerated. Before the thin straw's rules
-    (4f519ef): the plain run's top view had 221 of its 492 frames flagged (its fill, set
-    by the pixel grid) and the fit was refused; the riding rider pulled unflagged frames
-    up to 0.83 px off, the shadow up to 1.07 px; the crossing rider's fit was refused;
-    the hard run exited 0 with frames 2.3 px off and k3 +6.5 %, k4 -7 %."""
-    run, res = fitted_thin(name)
-    least = THIN[name][1]
-    assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
-    truth = json.loads((run / "truth.json").read_text())
-    record = json.loads(res.stdout)
-    for view, pts in _unflagged(run).items():
-        tab = truth["views"][view]["per_frame"]
-        flying = sum(1 for f in tab["frame"] if f >= truth["views"][view]["release_frame"])
-        assert len(pts) >= least * flying, (view, len(pts), flying)
-        bad = [(i, round(math.hypot(u - tab["u_coverage_px"][i],
-                                    v - tab["v_coverage_px"][i]), 3)) for i, u, v in pts]
-        bad = [b for b in bad if b[1] > 0.5]
-        assert not bad, f"{view}: {len(bad)} unflagged frames > 0.5 px off: {bad[:10]}"
-    assert_k_within(record, truth["truth"]["k"])
+    check_behind_the_post(*fitted("post"), 20)
 
 
 def test_a_straw_an_arm_passes_before_is_flagged_while_part_of_it_is_hidden(fitted):
@@ -606,7 +526,7 @@ def test_a_straw_an_arm_passes_before_is_flagged_while_part_of_it_is_hidden(fitt
     5 % behind it or more flagged. Before, the first frame after it had passed, 4 %
     behind it, was kept 0.51 px off: only full-size frames after it could put it (the
     frames before were flagged), and an extrapolation from 8 of them said too little."""
-    _check_behind_the_post(*fitted("arm"), 10)
+    check_behind_the_post(*fitted("arm"), 10)
 
 
 def test_a_small_object_coming_out_from_behind_the_post_is_flagged_until_it_is_whole(
@@ -616,7 +536,7 @@ def test_a_small_object_coming_out_from_behind_the_post_is_flagged_until_it_is_w
     follower's rule: a rod shortened at an end, or any object that lost coverage at a
     side. Before, only the shortened end was looked at there, and the second frame out,
     79 % of it still hidden, was kept 1.56 px off (exit 0)."""
-    _check_behind_the_post(*fitted("small_post"), 20)
+    check_behind_the_post(*fitted("small_post"), 20)
 
 
 def test_a_compact_object_an_arm_moves_along_with_is_measured_without_it(fitted):
@@ -627,17 +547,7 @@ def test_a_compact_object_an_arm_moves_along_with_is_measured_without_it(fitted)
     the object on the arm's side was read against the arm's level, as if shaded:
     frames beside it 0.2-0.28 px off, the prediction drew after them, and frames 7 %
     and 11 % behind the arm were kept 0.24 and 0.44 px off."""
-    _check_behind_the_post(*fitted("compact_arm_along"), 20)
-
-
-def test_a_straw_cut_in_two_by_a_post_narrower_than_it_is_flagged(fitted_thin):
-    """At the default scale the straw (19 px) is longer than a 6 px post: never hidden
-    whole, it shows as two pieces either side of it (measured as one, 23 px long with 40 %
-    of its coverage: narrower than a straw is), then as one piece. Before: a frame of two
-    pieces followed a run of merged ones, was not judged and was kept unflagged 2.9 px
-    off (flagged by its narrowness alone, the run broke there and 3 frames after it were
-    kept 4-5 px off)."""
-    _check_behind_the_post(*fitted_thin("post"), 20)
+    check_behind_the_post(*fitted("compact_arm_along"), 20)
 
 
 #: A dark grey ball 7 by 6 cm (23 by 20 px) with a highlight, 15 grey levels below a
@@ -670,7 +580,7 @@ def test_a_dark_ball_dropped_from_rest_is_followed_from_its_release(tmp_path):
     with open(run / "vidtrack" / "tracks.csv", newline="") as fh:
         flags = np.array([int(r["flags"]) for r in csv.DictReader(fh)])
     assert not np.any(flags & 4), np.flatnonzero(flags & 4)[:10]          # MERGED
-    pts = _unflagged(run)["front"]
+    pts = unflagged(run)["front"]
     assert len(pts) >= 0.65 * len(tab["frame"])
     err = [math.hypot(u - tab["u_coverage_px"][i], v - tab["v_coverage_px"][i])
            for i, u, v in pts]
