@@ -359,8 +359,6 @@ _XFAIL = {}
 #: ... and those the flight tracker (``[track] engine = "flight"``) does not yet pass, with
 #: what was measured (vidtrack bench track --real gives every row).
 _FLIGHT_XFAIL = {
-    "rider_crossing": "top view: frames 150-164, the rider crossing while the straw "
-                      "turns end on (too short for a bar), 0.53-1.28 px off, unflagged",
     "dark_highlight": "front view: frame 14, just after the release, 0.54 px off along "
                       "the straw: the blade it has left, of its polarity, still touches "
                       "its end in line with it, unflagged",

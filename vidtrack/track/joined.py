@@ -7,11 +7,12 @@ where the straw has left the blade, or takes the piece, and the release is looke
 where there is no ride left to see. Before the flight's first clean frame (the first
 frame the flight explains whose bar's misfit and whose detection's size lie within
 ``k_flag`` robust scatters of the flight's: the rod whole and alone), frame by frame
-back in time, the rod is followed by its model instead: its point predicted by a quadratic in time through
-the ``predict_frames`` points followed after it (:func:`vidtrack.track.path.extrapolate`),
-its angle carried from the frame after it; there the bar of the flight's own length,
-width and blurs (the median of its first ``predict_frames`` clean frames) is
-fitted to the frame's pixels, its centre, angle and coverage free
+back in time, the rod is followed by its model instead: its point predicted by a
+quadratic in time through the ``predict_frames`` points followed after it
+(:func:`vidtrack.track.path.extrapolate`), its angle carried from the frame after it;
+there the bar of the flight's own length, width and blurs (the median of its first
+``predict_frames`` clean frames) is fitted to the frame's pixels, its centre, angle and
+coverage free
 (:func:`vidtrack.track.measure.rod_at`). What the rod is joined to, of another tone or
 beside it, is not explained by a bar of the rod's length, and weighs little in the
 robust fit.
@@ -37,9 +38,14 @@ __all__ = ["follow_back", "BAR_COLUMNS"]
 BAR_COLUMNS = ("h", "w", "a", "misfit", "angle", "s", "s2")
 
 
+#: A point lies in a detection within this many of its spreads from its centre, along
+#: each axis of its second moments (a uniform ellipse's edge lies at two).
+INSIDE_SPREADS = 2.0
+
+
 def _inside(dets, u, v):
-    """The detection whose ellipse of second moments holds ``(u, v)`` nearest its
-    centre (in its own spreads; a uniform blob's edge lies at two), or -1."""
+    """The detection whose ellipse of second moments holds ``(u, v)`` (within
+    :data:`INSIDE_SPREADS`) nearest its centre, in its own spreads, or -1."""
     if len(dets) == 0:
         return -1
     du, dv = u - dets["u"], v - dets["v"]
@@ -48,7 +54,7 @@ def _inside(dets, u, v):
     det = np.maximum(muu * mvv - muv * muv, 1e-6)
     m2 = (mvv * du * du - 2.0 * muv * du * dv + muu * dv * dv) / det
     j = int(np.argmin(m2))
-    return j if m2[j] <= 4.0 else -1
+    return j if m2[j] <= INSIDE_SPREADS ** 2 else -1
 
 
 def _clean(chain, bars, flight, settings):
@@ -68,7 +74,7 @@ def _clean(chain, bars, flight, settings):
 
 
 def follow_back(get, detections, chain, bars, detector, shape, settings):
-    """Follow a rod's chain back in time from its first frame of flight, by its model.
+    """Follow a rod's chain back in time from its flight's first clean frame, by its model.
 
     Parameters
     ----------
