@@ -67,23 +67,3 @@ def assert_k_within(record, truth_k):
         assert c["value"] == pytest.approx(truth_k[k], rel=tol), k
         out[k] = c
     return out
-
-
-#: The slowest test modules and the seconds their slowest tests took (``pytest
-#: --durations=60``, two workers on a loaded two-core machine, 2026-11-29). pytest-xdist
-#: (``--dist loadfile``, pyproject.toml) hands whole modules to the workers in the order
-#: they were collected: the heaviest go first, so that the run does not end on one long
-#: module with the other worker idle. Only the order changes, never a test.
-MODULE_SECONDS = {
-    "test_thin_straw.py": 500, "test_synth_distractors.py": 300,
-    "test_scale_error.py": 196, "test_cli_report.py": 179, "test_cli_fit.py": 151,
-    "test_flight_tracker.py": 148, "test_real_footage.py": 124, "test_steady.py": 118,
-    "test_corrections.py": 101, "test_api.py": 83, "test_synth_perspective.py": 77,
-    "test_cli_fit_calibrated.py": 63, "test_lsq.py": 38, "test_tracker.py": 35,
-    "test_real_footage_variants.py": 34, "test_perspective_note.py": 33,
-}
-
-
-def pytest_collection_modifyitems(session, config, items):
-    # (a stable sort: a module's tests keep their order, the other modules theirs)
-    items.sort(key=lambda item: -MODULE_SECONDS.get(item.path.name, 0))
