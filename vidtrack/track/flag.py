@@ -46,6 +46,7 @@ import numpy as np
 
 from vidtrack.track._flags import APPEARANCE, BORDER, LOST, OUTLIER, PRE_RELEASE, PREDICTED
 from vidtrack.track.choose import MAJORITY
+from vidtrack.track.joined import size_z
 from vidtrack.track.measure import residual_outliers
 from vidtrack.track.path import local_quadratic, robust_scale
 from vidtrack.track.release import find_release as release_knot
@@ -233,10 +234,8 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
         # (a frame followed by the rod's model: its length and width are the flight's,
         # held; its detection, grown beyond the flight's, is what it is joined to)
         flight = np.flatnonzero(chain.explained)
-        logs = np.log(np.maximum(chain.size[flight], 1.0))
-        scale = robust_scale(logs, floor=settings.size_floor)
-        dev = np.log(np.maximum(chain.size[joined], 1.0)) - np.median(logs)
-        touched[np.searchsorted(idx, joined)] |= dev > settings.k_flag * scale
+        touched[np.searchsorted(idx, joined)] |= (size_z(chain, joined, flight, settings)
+                                                  > settings.k_flag)
     grown = touched | hidden
     flags[idx[grown]] |= APPEARANCE
     off, scatter = _path_outliers(idx, uv, settings, ~grown)

@@ -31,7 +31,7 @@ import numpy as np
 from vidtrack.track.measure import rod_at
 from vidtrack.track.path import extrapolate, robust_scale
 
-__all__ = ["follow_back", "BAR_COLUMNS"]
+__all__ = ["follow_back", "size_z", "BAR_COLUMNS"]
 
 #: The per-frame bar of a rod (:func:`vidtrack.track.measure.measure_frame`): half
 #: length, half width (px), coverage, misfit, angle (rad), blurs across and along (px).
@@ -65,12 +65,17 @@ def _clean(chain, bars, flight, settings):
     if not barred.any():
         return barred
     misfit = bars[flight, 3]
-    logs = np.log(np.maximum(chain.size[flight], 1.0))
-    ok = barred.copy()
-    for x, floor in ((misfit, settings.residual_floor), (logs, settings.size_floor)):
-        med = np.median(x[barred])
-        ok &= np.abs(x - med) <= settings.k_flag * robust_scale(x[barred], floor=floor)
-    return ok
+    scale = robust_scale(misfit[barred], floor=settings.residual_floor)
+    ok = barred & (np.abs(misfit - np.median(misfit[barred])) <= settings.k_flag * scale)
+    return ok & (np.abs(size_z(chain, flight, flight[barred], settings)) <= settings.k_flag)
+
+
+def size_z(chain, frames, ref, settings):
+    """The log size of each of ``frames``' detections less the median of the ``ref``
+    frames', in robust scatters of theirs (at least ``size_floor``)."""
+    logs = np.log(np.maximum(chain.size[ref], 1.0))
+    scale = robust_scale(logs, floor=settings.size_floor)
+    return (np.log(np.maximum(chain.size[frames], 1.0)) - np.median(logs)) / scale
 
 
 def follow_back(get, detections, chain, bars, detector, shape, settings):
