@@ -9,7 +9,9 @@ Each axis is its own ODE (``fits.throw``), so each is fitted on its own:
 Bounded nonlinear least squares (``scipy.optimize.least_squares``, trust region
 reflective) in scaled variables, from several robust starting values (polynomial fits
 of the track), with the closed form's own derivatives as the Jacobian
-(:mod:`fits.throw.jacobian`). Standard errors and 95 % intervals come from the Jacobian
+(:mod:`fits.throw.jacobian`), and finished by Gauss-Newton steps to the minimum itself,
+so the answer does not depend on the start (a refit of a nearby track, ``near=``, then
+needs one start). Standard errors and 95 % intervals come from the Jacobian
 at the solution under an error model fitted to the residuals: white noise plus an
 exponentially correlated part, by REML (:mod:`fits.errmodel`; tracking errors persist
 over many frames); a residual bootstrap is an option. What the track cannot determine is
@@ -42,6 +44,10 @@ log = logging.getLogger(__name__)
 #: Fewest points an axis (or a flight phase, for k1 and k2) needs to be fitted.
 MIN_POINTS = 6
 _K_BOUNDS = (1e-4, 1e5)
+#: Most Gauss-Newton steps that finish a fit (:func:`_polish`); one or two are used.
+_POLISH_STEPS = 8
+#: A polishing step may raise the cost by this much (relative): its rounding.
+_COST_ROUNDING = 1e-12
 
 
 # ---------------------------------------------------------------- the solver
@@ -90,7 +96,58 @@ def _solve(problem, t, obs, starts):
             f"the {problem.axis} fit did not converge ({msg}); {len(t)} points over "
             f"t = {t.min():.4g}..{t.max():.4g} s, position range "
             f"{np.ptp(obs):.4g} m")
+    _polish(problem, t, obs, *best)
     return best
+
+
+def _polish(problem, t, obs, res, scale):
+    """Gauss-Newton steps from the solver's answer ``res`` (changed in place) to the
+    least-squares minimum itself, where the residuals are orthogonal to the Jacobian.
+
+    The solver stops where its tolerances say; on a flat valley the cost there is the
+    minimum's to rounding while the estimates are up to a few 1e-6 (relative) apart from
+    one start to another. Gauss-Newton converges from there in a step or two; a step is
+    taken while it makes the residuals more nearly orthogonal to the Jacobian's columns
+    (:func:`_gradient`) without raising the cost beyond rounding, and within the bounds.
+    The answer then depends neither on the start nor on where the solver stopped.
+    """
+    q, r = res.x, res.fun
+    lower, upper = problem.lower / scale, problem.upper / scale
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        jac = problem.jac(t, q * scale) * scale
+        grad = _gradient(jac, r)
+        for _ in range(_POLISH_STEPS):
+            trial = q + np.linalg.lstsq(jac, -r, rcond=None)[0]
+            if not np.all((trial > lower) & (trial < upper)):
+                break
+            r_trial = problem.fun(t, trial * scale) - obs
+            jac_trial = problem.jac(t, trial * scale) * scale
+            res.nfev += 1
+            res.njev += 1
+            grad_trial = _gradient(jac_trial, r_trial)
+            if not (grad_trial < grad and r_trial @ r_trial <= (r @ r) * (1 + _COST_ROUNDING)):
+                break
+            q, r, jac, grad = trial, r_trial, jac_trial, grad_trial
+    res.x, res.fun, res.cost = q, r, 0.5 * float(r @ r)
+
+
+def _gradient(jac, r):
+    """The largest |cosine| between the residuals and a column of the Jacobian (0 at the
+    least-squares minimum; a column of zeros counts as orthogonal)."""
+    norms = np.linalg.norm(jac, axis=0) * np.linalg.norm(r)
+    cos = np.abs(jac.T @ r) / np.where(norms > 0, norms, 1.0)
+    return float(np.max(cos)) if np.all(np.isfinite(cos)) else np.inf
+
+
+def _solve_near(problem, t, obs, near, starts):
+    """:func:`_solve` from ``near`` alone (the answer of a nearby fit), or from ``starts``
+    when there is none or it does not converge."""
+    if near is not None:
+        try:
+            return _solve(problem, t, obs, [near])
+        except ConvergenceError:
+            pass
+    return _solve(problem, t, obs, starts)
 
 
 def _lag1_autocorrelation(t, r):
@@ -176,7 +233,20 @@ def _drag_k_start(accel, v0, cp, g, model):
 
 # ---------------------------------------------------------------- the axes
 
-def _fit_drag_axis(axis, t, obs, cp, g, model, frame_speed, n_boot, rng, errors=True):
+def _near_values(near, names):
+    """A starting value for ``names`` from ``near``, an :class:`AxisFit` of a nearby
+    track (or None): its values; (y0, vy0, k, k) from a vertical fit of one phase."""
+    if near is None:
+        return None
+    if near.names == names:
+        return tuple(near.values)
+    if names == ("y0", "vy0", "k1", "k2") and len(near.names) == 3:
+        return (*near.values, near.values[2])
+    return None
+
+
+def _fit_drag_axis(axis, t, obs, cp, g, model, frame_speed, n_boot, rng, errors=True,
+                   near=None):
     kname, vname, pname = ("k3", "vx0", "x0") if axis == "x" else ("k4", "vz0", "z0")
     p_pos, slope, accel = _poly2(t, obs)
     v0 = slope + frame_speed
@@ -205,14 +275,14 @@ def _fit_drag_axis(axis, t, obs, cp, g, model, frame_speed, n_boot, rng, errors=
         starts = [(p_pos, v0)]
         lower, upper = np.full(2, -np.inf), np.full(2, np.inf)
     problem = _Problem(axis, names, fun, jac, lower, upper)
-    res, scale = _solve(problem, t, obs, starts)
+    res, scale = _solve_near(problem, t, obs, _near_values(near, names), starts)
     fit = _statistics(problem, t, obs, res, scale, errors)
     if n_boot and errors:
         fit = _bootstrap(problem, t, obs, fit, n_boot, rng)
     return fit
 
 
-def _fit_y(t, obs, cp, g, model, n_boot, rng, errors=True):
+def _fit_y(t, obs, cp, g, model, n_boot, rng, errors=True, near=None):
     y_start, v_start, accel = _poly2(t, obs)
     k_start = float(np.clip(-accel / g, 0.05, 50.0)) if accel < 0 else 1.0
 
@@ -235,7 +305,7 @@ def _fit_y(t, obs, cp, g, model, n_boot, rng, errors=True):
     problem = _Problem("y", ("y0", "vy0", "k1", "k2"), full, full_jac,
                        np.array([-inf, -inf, _K_BOUNDS[0], _K_BOUNDS[0]]),
                        np.array([inf, inf, _K_BOUNDS[1], _K_BOUNDS[1]]))
-    res, scale = _solve(problem, t, obs, starts)
+    res, scale = _solve_near(problem, t, obs, _near_values(near, problem.names), starts)
     p = res.x * scale
     notes = []
     apex_t = _apex_time(p[1], p[2], cp, g, model)
@@ -299,7 +369,7 @@ def _clean(t, obs):
 
 
 def fit_throw(world, cp, *, g=G_STANDARD, v1=0.0, model="quadratic", bootstrap=0,
-              rng=None, errors=True):
+              rng=None, errors=True, near=None):
     """Fit the throw model to a world track, axis by axis.
 
     Parameters
@@ -324,6 +394,11 @@ def fit_throw(world, cp, *, g=G_STANDARD, v1=0.0, model="quadratic", bootstrap=0
         has ``stderr`` and ``ci95`` None and the axes' covariances are NaN. A
         coefficient is then "determined" when the axis fits it, without the interval's
         test against 0. About three times faster.
+    near : ThrowFit, keyword-only
+        A fit of the same model to a nearby track (the same throw with a view's scale
+        moved, say): each axis is fitted from its values alone instead of from several
+        starting values, and from those where it does not converge. The answer is the
+        least-squares minimum next to ``near``'s.
 
     Returns
     -------
@@ -359,11 +434,12 @@ def fit_throw(world, cp, *, g=G_STANDARD, v1=0.0, model="quadratic", bootstrap=0
             for k in kname:
                 coeffs[k] = Coefficient.undetermined(why)
             continue
+        near_axis = near.axes.get(axis) if near is not None else None
         if axis == "y":
-            fit = _fit_y(t, obs, cp, g, model, bootstrap, rng, errors)
+            fit = _fit_y(t, obs, cp, g, model, bootstrap, rng, errors, near_axis)
         else:
             fit = _fit_drag_axis(axis, t, obs, cp, g, model, v1 if axis == "z" else 0.0,
-                                 bootstrap, rng, errors)
+                                 bootstrap, rng, errors, near_axis)
         axes[axis] = fit
         log.debug("%s: %d points, parameters %s, residual RMS %.3g mm, %d evaluations",
                   axis, fit.n_points, ", ".join(fit.names), 1000 * fit.residual_rms_m,

@@ -450,7 +450,7 @@ def perspective_effect(scene, tracks, world, fit, *, cp, model="quadratic"):
         if math.isfinite(distance):
             try:
                 moved = fit_throw(_scaled(world.data, mappings[v], v, reference, foot,
-                                          distance), errors=False, **fit_args)
+                                          distance), errors=False, near=fit, **fit_args)
                 shift = {k: moved.coefficients[k].value - determined[k].value for k in stderr
                          if moved.coefficients[k].determined}
             except (ConvergenceError, InputError, ValueError) as exc:
@@ -463,11 +463,11 @@ def perspective_effect(scene, tracks, world, fit, *, cp, model="quadratic"):
                         if not plain:
                             plain.append(fit_throw(merge_tracks(tracks, mappings,
                                                                 sync=sync).data,
-                                                   errors=False, **fit_args))
+                                                   errors=False, near=fit, **fit_args))
                         maps = dict(mappings)
                         maps[v] = dataclasses.replace(mappings[v], camera_distance_m=distance)
                         moved = fit_throw(merge_tracks(tracks, maps, sync=sync).data,
-                                          errors=False, **fit_args)
+                                          errors=False, near=fit, **fit_args)
                     base = plain[0].coefficients
                     shift = {k: moved.coefficients[k].value - base[k].value for k in stderr
                              if moved.coefficients[k].determined and base[k].determined}

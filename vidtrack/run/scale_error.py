@@ -79,12 +79,12 @@ class ScaleError:
                           "uncertainty, the views merged and fitted again"}
 
 
-def _refit(tracks, mappings, sync, fit_args):
+def _refit(tracks, mappings, sync, fit_args, near):
     from fits.lsq import fit_throw
     from vidtrack.world.orthogonal import merge_tracks
 
     world = merge_tracks(tracks, mappings, sync=sync)
-    return fit_throw(world.data, errors=False, **fit_args)
+    return fit_throw(world.data, errors=False, near=near, **fit_args)
 
 
 def scale_error(scene, tracks, fit, *, cp, model="quadratic"):
@@ -138,7 +138,7 @@ def scale_error(scene, tracks, fit, *, cp, model="quadratic"):
             m[n] = dataclasses.replace(mappings[n], m_per_px=mappings[n].m_per_px
                                        * (1.0 + sign * h))
             try:
-                moved.append(_refit(tracks, m, sync, fit_args))
+                moved.append(_refit(tracks, m, sync, fit_args, fit))
             except (ConvergenceError, InputError, VidtrackError, ValueError) as exc:
                 notes.append(f"the {n} view's scale could not be carried into k: the fit "
                              f"with it {100 * sign * h:+.3g} % failed ({exc})")
