@@ -32,18 +32,28 @@ def _span(record, view):
                            ["from"]).group(1))
 
 
-@pytest.fixture(scope="module")
-def run(tmp_path_factory):
-    folder = synth_run("scale-error", flight_s=0.3, frames=None)
-    out = tmp_path_factory.mktemp("scale") / "run"
-    shutil.copytree(folder, out, ignore=shutil.ignore_patterns("vidtrack"))
-    return out
+_FITTED = {}
 
 
-def test_a_ruler_read_off_moves_k_as_the_delta_method_predicts(run, tmp_path, vidtrack_cli):
-    r = vidtrack_cli("fit", str(run), "--json", "--no-report", "-q")
-    assert r.returncode == 0, r.stderr
-    base = json.loads(r.stdout)
+def fitted(seed):
+    """Render ``seed`` of the coverage (seed 100 + ``seed``, shared through
+    :func:`synth_runs.synth_run`), copied and fitted once by ``vidtrack fit --json
+    --no-report``: (the fitted copy, its record). Shared by the tests: never changed."""
+    if seed not in _FITTED:
+        from conftest import run_vidtrack
+
+        folder = synth_run(f"coverage-{seed}", flight_s=0.3, frames=None, seed=100 + seed)
+        out = folder.with_name(folder.name + "-fitted")
+        shutil.copytree(folder, out, ignore=shutil.ignore_patterns("vidtrack"))
+        r = run_vidtrack("fit", out, "--json", "--no-report", "-q")
+        assert r.returncode == 0, r.stderr
+        _FITTED[seed] = out, json.loads(r.stdout)
+    return _FITTED[seed]
+
+
+def test_a_ruler_read_off_moves_k_as_the_delta_method_predicts(tmp_path, vidtrack_cli):
+    # the first render of the coverage below, and its fit (the real command line)
+    run, base = fitted(0)
     cal = base["calibration"]["views"]
     for view in ("front", "top"):
         # the default half pixel per end: sqrt(2) 0.5 / N
@@ -115,7 +125,6 @@ def coverage(seeds=4, readings=10, sigma_px=0.5, rng_seed=0):
     fitted and its scale part computed as ``vidtrack fit`` does (the scale does not
     change the tracks).
     """
-    from conftest import run_vidtrack
     from fits.lsq import fit_throw
     from vidtrack.run.scale_error import scale_error
     from vidtrack.run.tracks_file import read_tracks
@@ -126,9 +135,7 @@ def coverage(seeds=4, readings=10, sigma_px=0.5, rng_seed=0):
     hits = {"fit": {k: 0 for k in K}, "total": {k: 0 for k in K}}
     n = skipped = 0
     for seed in range(seeds):
-        folder = synth_run(f"coverage-{seed}", flight_s=0.3, frames=None, seed=100 + seed)
-        done = run_vidtrack("fit", folder, "--no-report", "-q")     # the tracks, once
-        assert done.returncode == 0, done.stderr
+        folder, _ = fitted(seed)                                    # the tracks, once
         scene = load_scene(folder)
         tracks = read_tracks(folder / "vidtrack" / "tracks.h5").tracks
         true_k = truth(folder)["truth"]["k"]
