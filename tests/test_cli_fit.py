@@ -4,6 +4,7 @@ the real CLI as a subprocess -> tracks.h5, fit.json and reports checked against 
 import hashlib
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -580,9 +581,9 @@ def test_a_run_can_be_profiled(tmp_path, fitted_run42, how):
 
 # ---------------------------------------------------------------- stale outputs (item 5)
 
-def test_a_refit_with_other_options_leaves_no_report_of_the_old_fit(vidtrack_cli, tmp_path):
-    run = run42_copy(tmp_path / "run")
-    assert fit(vidtrack_cli, run, "-q").returncode == 0
+def test_a_refit_with_other_options_leaves_no_report_of_the_old_fit(vidtrack_cli, tmp_path,
+                                                                    fitted_run42):
+    run = shutil.copytree(fitted_run42, tmp_path / "run")     # its stages reused
     out = run / "vidtrack"
     assert "quadratic" in (out / "report.md").read_text()
     res = fit(vidtrack_cli, run, "--model", "linear", "--no-report")
@@ -601,10 +602,8 @@ def test_a_refit_with_other_options_leaves_no_report_of_the_old_fit(vidtrack_cli
     assert (out / "report.html").is_file()
 
 
-def test_fit_json_is_written_before_the_reports(vidtrack_cli, tmp_path):
-    run = run42_copy(tmp_path / "run")
-    assert fit(vidtrack_cli, run, "-q").returncode == 0
-    out = run / "vidtrack"
+def test_fit_json_is_written_before_the_reports(fitted_run42):
+    out = fitted_run42 / "vidtrack"                 # the module's fit, run42 from scratch
     fit_ns = (out / "fit.json").stat().st_mtime_ns
     assert fit_ns <= (out / "report.md").stat().st_mtime_ns
     assert fit_ns <= (out / "report.html").stat().st_mtime_ns
@@ -613,9 +612,9 @@ def test_fit_json_is_written_before_the_reports(vidtrack_cli, tmp_path):
     assert set(stages["fit"]["files"]) == {"fit.json", "report.md", "report.html"}
 
 
-def test_a_failed_rerun_leaves_no_output_that_looks_current(vidtrack_cli, tmp_path):
-    run = run42_copy(tmp_path / "run")
-    assert fit(vidtrack_cli, run, "-q").returncode == 0
+def test_a_failed_rerun_leaves_no_output_that_looks_current(vidtrack_cli, tmp_path,
+                                                           fitted_run42):
+    run = shutil.copytree(fitted_run42, tmp_path / "run")     # its stages reused
     top = run / "top.avi"
     top.write_bytes(top.read_bytes()[:top.stat().st_size // 2])   # footage now truncated
     before = digest_tree(run)
