@@ -70,14 +70,22 @@ def run(tmp_path):
 
 
 @pytest.fixture(scope="module")
-def baseline(tmp_path_factory):
-    """The run fitted without corrections: fit.json and tracks.csv."""
+def fitted(tmp_path_factory):
+    """The run fitted without corrections: (its folder, with vidtrack/, the fit's record).
+    Shared by the tests: copied, never changed."""
     dst = tmp_path_factory.mktemp("base") / "run"
     shutil.copytree(synth_run("corrections", **RUN), dst,
                     ignore=shutil.ignore_patterns("vidtrack"))
     res = run_vidtrack("fit", dst, "--json", "--no-report", "-q")
     assert res.returncode == 0, res.stderr
-    return json.loads(res.stdout), pd.read_csv(dst / "vidtrack" / "tracks.csv")
+    return dst, json.loads(res.stdout)
+
+
+@pytest.fixture(scope="module")
+def baseline(fitted):
+    """The run fitted without corrections: fit.json and tracks.csv."""
+    dst, record = fitted
+    return record, pd.read_csv(dst / "vidtrack" / "tracks.csv")
 
 
 def _add_to_view(folder, view, lines):
@@ -205,10 +213,11 @@ def test_wrong_manual_points_move_the_fit_and_an_edited_csv_tracks_again(run, vi
     assert abs(k1_bad["value"] - k1_good["value"]) > 3 * k1_good["stderr"]
 
 
-def test_a_flag_set_by_hand_in_tracks_h5_counts(run, vidtrack_cli):
+def test_a_flag_set_by_hand_in_tracks_h5_counts(fitted, tmp_path, vidtrack_cli):
     import h5py
 
-    first, _ = _fit(vidtrack_cli, run)
+    src, first = fitted
+    run = shutil.copytree(src, tmp_path / "run")
     h5 = run / "vidtrack" / "tracks.h5"
     a, b = 100, 120
     with h5py.File(h5, "r+") as h:
@@ -263,9 +272,18 @@ def _calibrated_copy(src, dst, distance_m=1e4):
     return dst
 
 
-def test_calibrated_exclude_frames_on_cam1(tmp_path, vidtrack_cli):
-    run = _calibrated_copy(synth_run("corrections", **RUN), tmp_path / "cal")
-    base, _ = _fit(vidtrack_cli, run)
+@pytest.fixture(scope="module")
+def calibrated(tmp_path_factory):
+    """The run as two calibrated cameras (:func:`_calibrated_copy`) fitted: (its folder,
+    with vidtrack/, the fit's record). Shared by the tests: copied, never changed."""
+    run = _calibrated_copy(synth_run("corrections", **RUN),
+                           tmp_path_factory.mktemp("cal") / "cal")
+    return run, _fit(run_vidtrack, run)[0]
+
+
+def test_calibrated_exclude_frames_on_cam1(calibrated, tmp_path, vidtrack_cli):
+    src, base = calibrated
+    run = shutil.copytree(src, tmp_path / "cal")
     world0 = pd.read_csv(run / "vidtrack" / "world.csv")
     seen = sorted(int(f) for f in world0["frame"])
     runs, start = [], seen[0]            # stretches of consecutive triangulated frames
@@ -295,10 +313,9 @@ def test_calibrated_exclude_frames_on_cam1(tmp_path, vidtrack_cli):
     assert len(errors) >= 2 and all(abs(e) < 0.03 for e in errors.values()), errors
 
 
-def test_calibrated_target_is_passed_to_the_tracker(tmp_path, vidtrack_cli):
+def test_calibrated_target_is_passed_to_the_tracker(calibrated, tmp_path, vidtrack_cli):
     src = synth_run("corrections", **RUN)
-    run = _calibrated_copy(src, tmp_path / "cal")
-    _fit(vidtrack_cli, run)
+    run = shutil.copytree(calibrated[0], tmp_path / "cal")
     plain = pd.read_csv(run / "vidtrack" / "tracks.csv")
     u, v = _truth_pixels(src, "front", [120]).to_numpy()[0]
     _add_to_view(run, "cam1", [f"target = {{ frame = 120, at_px = [{u:.2f}, {v:.2f}] }}"])
