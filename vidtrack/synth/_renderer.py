@@ -76,6 +76,34 @@ class _ViewTrack:
             self.sub2_a = view.to_px(cs2 - half * ds2).reshape(n, kk, 2)
             self.sub2_b = view.to_px(cs2 + half * ds2).reshape(n, kk, 2)
         self._distractors(spec, view, throw, c, d, cs, ds)
+        self.machine = self._machine(spec, view, throw) if spec.draw_machine else None
+
+    def _machine(self, spec, view, throw):
+        """The rotor's layers at every frame and exposure sample, [i][j] -> list, each
+        shape mapped to pixels once here (the same arithmetic as one at a time)."""
+        m = view.mapping.m_per_px
+        phi = throw.release_angle_rad + throw.blade_rad_s * self.ts          # (n, K)
+        ang = np.stack([phi, phi + math.pi], axis=-1).ravel()                 # (n K 2,)
+        radius = throw.blade_radius_m
+        tip = np.array([[radius * math.cos(a), radius * math.sin(a), 0.0] for a in ang])
+        if view.name == "front":
+            a = view.to_px(np.zeros((1, 3)))[0]
+            teeth = [_raster.Capsule(tuple(a), tuple(b), _TOOTH_HALF_WIDTH_M / m)
+                     for b in view.to_px(tip)]
+            hub = _raster.Capsule(tuple(a), tuple(a), _HUB_RADIUS_M / m)
+        else:
+            x = tip[:, 0]
+            corners = view.mapping.world_to_pixel(np.column_stack([
+                np.minimum(0.0, x), np.full(x.size, -_TOOTH_HALF_BREADTH_M),
+                np.maximum(0.0, x), np.full(x.size, _TOOTH_HALF_BREADTH_M)]).reshape(-1, 2))
+            teeth = [_raster.Box(c[0, 0], c[1, 0], c[0, 1], c[1, 1])
+                     for c in corners.reshape(-1, 2, 2)]
+            hub = view.world_box((-_SHAFT_HALF_WIDTH_M, -_SHAFT_HALF_LENGTH_M),
+                                 (_SHAFT_HALF_WIDTH_M, _SHAFT_HALF_LENGTH_M))
+        n, kk = self.ts.shape
+        return [[[("tooth0", teeth[2 * (i * kk + j)], _GREY["tooth"]),
+                  ("tooth1", teeth[2 * (i * kk + j) + 1], _GREY["tooth"]),
+                  ("hub", hub, _GREY["hub"])] for j in range(kk)] for i in range(n)]
 
     def _distractors(self, spec, view, throw, c, d, cs, ds):
         """Poses of the distractors asked for (docs/synth.md, "Distractors")."""
@@ -121,26 +149,8 @@ class _ViewTrack:
         """Opaque layers of exposure sample j of frame i, back to front."""
         spec, view = self.spec, self.view
         out = []
-        if spec.draw_machine:
-            phi = self.throw.release_angle_rad + self.throw.blade_rad_s * self.ts[i, j]
-            radius = self.throw.blade_radius_m
-            m = view.mapping.m_per_px
-            for tooth, ang in (("tooth0", phi), ("tooth1", phi + math.pi)):
-                tip = np.array([[radius * math.cos(ang), radius * math.sin(ang), 0.0]])
-                if view.name == "front":
-                    a, b = view.to_px(np.zeros((1, 3)))[0], view.to_px(tip)[0]
-                    shape = _raster.Capsule(tuple(a), tuple(b), _TOOTH_HALF_WIDTH_M / m)
-                else:
-                    shape = view.world_box((min(0.0, tip[0, 0]), -_TOOTH_HALF_BREADTH_M),
-                                           (max(0.0, tip[0, 0]), _TOOTH_HALF_BREADTH_M))
-                out.append((tooth, shape, _GREY["tooth"]))
-            if view.name == "front":
-                o = view.to_px(np.zeros((1, 3)))[0]
-                hub = _raster.Capsule(tuple(o), tuple(o), _HUB_RADIUS_M / m)
-            else:
-                hub = view.world_box((-_SHAFT_HALF_WIDTH_M, -_SHAFT_HALF_LENGTH_M),
-                                     (_SHAFT_HALF_WIDTH_M, _SHAFT_HALF_LENGTH_M))
-            out.append(("hub", hub, _GREY["hub"]))
+        if self.machine is not None:
+            out.extend(self.machine[i][j])
         if self.person is not None:
             out.extend(self.person.parts(float(self.ts[i, j])))
         if self.second and np.all(np.isfinite(self.sub2_a[i, j])):
