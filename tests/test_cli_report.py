@@ -20,17 +20,27 @@ def k_of(a, b):
             21.3 - 2.0 * a)
 
 
+def synth(out, *options):
+    """``vidtrack synth OUT OPTIONS`` rendered in this process: the command's own options
+    and spec, without a Python started for each run (the command itself as a subprocess:
+    tests/test_synth.py)."""
+    from vidtrack.cli import build_parser
+    from vidtrack.cli.synth import spec_from_args
+    from vidtrack.synth import render_run
+
+    render_run(out, spec_from_args(build_parser().parse_args(["synth", str(out), *options])),
+               quiet=True)
+
+
 @pytest.mark.slow
 def test_report_fits_every_run_and_analyses_the_table(vidtrack_cli, tmp_path):
     exp = tmp_path / "exp"
     for i, (a, b) in enumerate(DESIGN, start=1):
         k = ",".join(f"{v:.6f}" for v in k_of(a, b))
-        res = vidtrack_cli("synth", exp / "runs" / f"{i:02d}", "--size", "300x140",
-                           "--top-size", "300x90", "--straw-length-m", "0.25",
-                           "--straw-diameter-m", "0.025", "--flight-s", "0.25",
-                           "--noise", "1.0", "--k", k, "--n-rpm", str(550 + 100 * a),
-                           "--blade-angle-deg", str(5 * b), "--seed", str(i))
-        assert res.returncode == 0, res.stderr
+        synth(exp / "runs" / f"{i:02d}", "--size", "300x140", "--top-size", "300x90",
+              "--straw-length-m", "0.25", "--straw-diameter-m", "0.025", "--flight-s", "0.25",
+              "--noise", "1.0", "--k", k, "--n-rpm", str(550 + 100 * a),
+              "--blade-angle-deg", str(5 * b), "--seed", str(i))
     (exp / "experiment.toml").write_text(
         'schema = 1\ndesign = "ccd"\nresponses = ["k1", "k2", "k3", "k4"]\nruns = "runs/*"\n'
         '[factors.A]\nname = "n_rpm"\ncentre = 550\nstep = 100\n'
