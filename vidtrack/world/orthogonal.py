@@ -207,10 +207,11 @@ def _shared_x_offset(ref_w, t0_ref, other_w, other_step, *, min_overlap, name, s
         return float(np.mean((xi[ok] - xr[ok]) ** 2))
 
     def costs_of(t0s):
-        # cost() for many offsets at once, in blocks of about a million points; X is
+        # cost() for many offsets at once, in blocks of about 16k points (their
+        # temporaries stay in the cache instead of being mapped afresh each time); X is
         # interpolated only at the shifted times within the other view's (NaN elsewhere)
         out = np.empty(t0s.size)
-        per = max(1, 1_000_000 // max(tr.size, 1))
+        per = max(1, 16_384 // max(tr.size, 1))
         for a in range(0, t0s.size, per):
             shifted = tr[None, :] + t0s[a:a + per, None]
             inside = (shifted >= to[0]) & (shifted <= to[-1])
