@@ -334,7 +334,8 @@ def merge_tracks(tracks, mappings, *, sync=None, min_overlap=10):
         how[v] = "shared x"
     merged = {v: _flag_before_t0(tracks[v], t0[v], how[v], steps[v], ref=ref,
                                  ref_how=how[ref]) for v in names}
-    world = {v: view_world(merged[v], mappings[v]) for v in names}
+    world = {v: world[v] if merged[v] is tracks[v] else view_world(merged[v], mappings[v])
+             for v in names}     # a track the flagging left as it was keeps its points
     # perspective (vidtrack.world.parallax): a view with camera_distance_m scaled by the
     # other view's depth; an offset found on the shared X is found again on the corrected
     # X (uncorrected, the two views see X at different scales), and the views corrected
