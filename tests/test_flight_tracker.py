@@ -138,6 +138,27 @@ def test_a_ball_touching_its_soft_shadow_on_texture_is_detected_alone(polarity):
     assert np.all(3.0 * with_test < without)
 
 
+def test_the_path_test_does_not_let_a_far_frame_pull_good_ones_off():
+    # a chain whose first 7 frames are on something else 10.6 px away (the launcher
+    # ball's shadow), 3 of them of the object's own size: tested from afar, those passed
+    # through their prediction's spread and pulled the good frames after them off the
+    # path in turn, until the rounds ran out (frames 7-9 flagged, 0 and 2 kept); grown
+    # a frame a round from the frames kept, exactly the 7 are off
+    from vidtrack.track.flag import _path_outliers
+
+    rng = np.random.default_rng(0)
+    n = 80
+    t = np.arange(n)
+    uv = np.column_stack([100 + 3.0 * t, 50 - 2.0 * t + 0.05 * t * t])
+    uv = uv + rng.normal(0, 0.1, (n, 2))
+    uv[:7] += (8.0, -7.0)
+    start = np.ones(n, bool)
+    start[[0, 3, 5, 6]] = False
+    off, scatter = _path_outliers(t, uv, TrackerSettings(), start)
+    assert np.array_equal(np.flatnonzero(off), np.arange(7))
+    assert 0.05 < scatter < 0.2
+
+
 # ------------------------------------------------------------------ link + choose
 def _dets(points):
     """A frame's detections from (u, v, area) triples."""

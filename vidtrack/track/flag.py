@@ -6,8 +6,9 @@ Against the chain's own clean frames, two tests with one threshold, ``k_flag``:
   (:func:`vidtrack.track.path.local_quadratic`, ``path_window`` frames either side, the
   frame itself left out), studentized (over ``sqrt(1 + h)``, ``h`` the prediction's own
   variance factor: the ends of a path are predicted from one side), beyond ``k_flag``
-  times their scatter (per axis: their median over 1.1774, as for a 2-D normal law;
-  and beyond ``flag_floor_px``): OUTLIER;
+  times their scatter (per axis: their median over 1.1774, as for a 2-D normal law),
+  and farther than ``flag_floor_px`` from the path (a distance, not studentized):
+  OUTLIER; taken again from the frames each round keeps (:func:`_path_outliers`);
 - **appearance** (first: the path test starts from the frames that pass it): the log of
   each frame's detected size (pixels: what joins the object grows it) against the
   median of its neighbours' within twice ``path_window`` frames; the log of its weight measured by
@@ -78,22 +79,55 @@ REASONS = {"lost": "no detection of the object in this frame (LOST)",
                         "(PREDICTED)"}
 
 
+#: A frame is tested against its neighbours' path only where its prediction's variance
+#: is at most this many times a point's (one frame beyond the frames kept, with
+#: ``path_window`` 6: 4.6; two frames: 33); else it may be left out, not taken in.
+PREDICTION_H_MAX = 5.0
+
+
 def _path_outliers(idx, uv, settings, start):
     """Frames (positions in idx) off their neighbours' path, and the scatter (px);
-    ``start``: the frames trusted at first (those of the object's own size)."""
+    ``start``: the frames trusted at first (those of the object's own size).
+
+    The test is taken again from the frames each round keeps, until they stay the same.
+    A frame predicted from afar (its prediction's variance beyond
+    :data:`PREDICTION_H_MAX` times a point's) may be left out by the test but not taken
+    in: the frames kept grow a frame a round from where they are, not by a reach
+    through which anything passes. Where the rounds still come back to frames kept
+    before (frames that pass only while others are left out, in turn), the frames kept
+    are those of the round in that cycle whose path explains the chain best, its
+    truncated cost (the sum over the frames of ``min((residual / threshold)^2, 1)``, 1
+    for a frame it cannot predict) the least, that its own test passes.
+    """
     ok = start.copy()
+    seen, rounds = {}, []
     scatter = float("nan")
-    for _ in range(5):
+    for r in range(idx.size + 1):
         pred, _acc, h, _ha = local_quadratic(idx, uv, settings.path_window,
                                              weights=ok.astype(float), leverage=True)
         # (the residual studentized: a point predicted from one side, at the ends,
         # is predicted less well)
-        res = np.hypot(*(pred - uv).T) / np.sqrt(1.0 + np.where(np.isfinite(h), h, 0.0))
+        spread = np.sqrt(1.0 + np.where(np.isfinite(h), h, 0.0))
+        res = np.hypot(*(pred - uv).T) / spread
         scatter = float(np.median(res[ok & np.isfinite(res)])) / RAYLEIGH_MEDIAN if ok.any() \
             else float("nan")
-        new = ~(res > max(settings.k_flag * scatter, settings.flag_floor_px))
+        # (the floor is a distance from the path, not studentized: a frame predicted from
+        # one side is not let off beyond it)
+        limit = np.maximum(settings.k_flag * scatter, settings.flag_floor_px / spread)
+        new = ~(res > limit)
         new &= np.isfinite(res) | (idx.size < 4)
+        far = np.isfinite(res) & ~(np.where(np.isfinite(h), h, np.inf) <= PREDICTION_H_MAX)
+        new = np.where(far, ok & new, new)
         if np.array_equal(new, ok):
+            break
+        # (a frame it cannot predict costs as much as one it rejects)
+        with np.errstate(invalid="ignore"):
+            cost = float(np.sum(np.where(np.isfinite(res),
+                                         np.minimum((res / limit) ** 2, 1.0), 1.0)))
+        seen[ok.tobytes()] = r
+        rounds.append((cost, ok & new, scatter))
+        if new.tobytes() in seen:
+            cost, ok, scatter = min(rounds[seen[new.tobytes()]:], key=lambda x: x[0])
             break
         ok = new
     return ~ok, scatter
