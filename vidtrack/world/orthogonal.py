@@ -156,21 +156,16 @@ def _interp_gapless(t_new, t, y, max_step):
     if t.size < 2:
         return out
     inside = (t_new >= t[0]) & (t_new <= t[-1])
-    val, ok = _interp_within(t_new[inside], t, y, max_step)
-    out[inside] = np.where(ok, val, np.nan)
-    return out
-
-
-def _interp_within(t_new, t, y, max_step):
-    """:func:`_interp_gapless` at times t_new within [t0, t1] (t increasing, at least two
-    points): the values and where they hold (False across a gap)."""
-    k = np.searchsorted(t, t_new)
-    exact = t[k] == t_new
+    tn = t_new[inside]
+    k = np.searchsorted(t, tn)
+    exact = t[k] == tn
     before = np.maximum(k - 1, 0)
     ta, tb = t[before], t[k]
     with np.errstate(divide="ignore", invalid="ignore"):   # only where exact (tb = ta)
-        val = y[before] + (t_new - ta) / (tb - ta) * (y[k] - y[before])
-    return np.where(exact, y[k], val), exact | ((tb - ta) <= max_step)
+        val = y[before] + (tn - ta) / (tb - ta) * (y[k] - y[before])
+    ok = exact | ((tb - ta) <= max_step)
+    out[inside] = np.where(ok, np.where(exact, y[k], val), np.nan)
+    return out
 
 
 def _frame_step(track):
@@ -208,22 +203,15 @@ def _shared_x_offset(ref_w, t0_ref, other_w, other_step, *, min_overlap, name, s
 
     def costs_of(t0s):
         # cost() for many offsets at once, in blocks of about 16k points (their
-        # temporaries stay in the cache instead of being mapped afresh each time); X is
-        # interpolated only at the shifted times within the other view's (NaN elsewhere)
+        # temporaries stay in the cache instead of being mapped afresh each time)
         out = np.empty(t0s.size)
         per = max(1, 16_384 // max(tr.size, 1))
         for a in range(0, t0s.size, per):
-            shifted = tr[None, :] + t0s[a:a + per, None]
-            inside = (shifted >= to[0]) & (shifted <= to[-1])
-            xi, ok_in = _interp_within(shifted[inside], to, xo, max_step)
-            ok_in &= np.isfinite(xi)
-            ok = np.zeros(shifted.shape, dtype=bool)
-            ok[inside] = ok_in
-            sq = np.zeros(shifted.shape)
-            sq[ok] = (xi[ok_in] - np.broadcast_to(xr, shifted.shape)[ok]) ** 2
+            xi = _interp_gapless(tr[None, :] + t0s[a:a + per, None], to, xo, max_step)
+            ok = np.isfinite(xi)
             cnt = np.count_nonzero(ok, axis=1)
-            out[a:a + per] = np.where(cnt >= min_overlap,
-                                      np.sum(sq, axis=1) / np.maximum(cnt, 1), np.inf)
+            sq = np.sum(np.where(ok, (xi - xr) ** 2, 0.0), axis=1)
+            out[a:a + per] = np.where(cnt >= min_overlap, sq / np.maximum(cnt, 1), np.inf)
         return out
 
     lo = to[0] - tr[-1]
