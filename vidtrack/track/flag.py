@@ -116,7 +116,8 @@ def _path_outliers(idx, uv, settings, start):
         limit = np.maximum(settings.k_flag * scatter, settings.flag_floor_px / spread)
         new = ~(res > limit)
         new &= np.isfinite(res) | (idx.size < 4)
-        far = np.isfinite(res) & ~(np.where(np.isfinite(h), h, np.inf) <= PREDICTION_H_MAX)
+        with np.errstate(invalid="ignore"):
+            far = np.isfinite(res) & ~(h <= PREDICTION_H_MAX)
         new = np.where(far, ok & new, new)
         if np.array_equal(new, ok):
             break

@@ -32,9 +32,10 @@ from vidtrack.track.background import estimate_background, gather_samples
 from vidtrack.track.choose import choose
 from vidtrack.track.detect import Detector
 from vidtrack.track.flag import REASON_COLUMN, bridge_gaps, judge, reason_codes
-from vidtrack.track.joined import BAR_COLUMNS, follow_back
+from vidtrack.track.joined import follow_back
 from vidtrack.track.link import link
-from vidtrack.track.measure import chain_shape, has_highlight, is_rod, measure_frame
+from vidtrack.track.measure import (BAR_COLUMNS, bar_moments, chain_shape, has_highlight,
+                                    is_rod, measure_frame)
 from vidtrack.track.rod import END_COLUMNS
 from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
@@ -132,7 +133,7 @@ def _measure(source, held, detector, detections, chain, shape, settings, cancel,
     """Each chain frame measured by the object's shape (:mod:`vidtrack.track.measure`):
     the chain's positions are replaced; returns per frame position (weight, muu, mvv,
     muv), the residual share and the model's (half length, half width, coverage,
-    misfit, angle, blurs; :data:`~vidtrack.track.joined.BAR_COLUMNS`) (NaN where the
+    misfit, angle, blurs; :data:`~vidtrack.track.measure.BAR_COLUMNS`) (NaN where the
     chain has no detection or no model). Footage not held is decoded again for it, one
     frame at a time."""
     n = len(detections)
@@ -285,12 +286,8 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     followed = (follow_back(get, detections, chain, bars, detector, shape, settings)
                 if follow else np.zeros(0, int))
     del held, get
-    for i in followed:      # (a bar's moments: its length and width as a uniform bar's)
-        h, w, a, _, ang = bars[i, :5]
-        c, s = np.cos(ang), np.sin(ang)
-        along, across = (2.0 * h) ** 2 / 12.0, (2.0 * w) ** 2 / 12.0
-        moments[i] = (4.0 * a * h * w, along * c * c + across * s * s,
-                      along * s * s + across * c * c, (along - across) * c * s)
+    for i in followed:
+        moments[i] = bar_moments(bars[i])
     flags, release, scatter, notes, reasons = judge(chain, detections, n, settings,
                                            find_release=view != "top", residual=residual,
                                            weight=moments[:, 0], bar=bars[:, :4],

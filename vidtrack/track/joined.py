@@ -31,11 +31,7 @@ import numpy as np
 from vidtrack.track.measure import rod_at
 from vidtrack.track.path import extrapolate, robust_scale
 
-__all__ = ["follow_back", "size_z", "BAR_COLUMNS"]
-
-#: The per-frame bar of a rod (:func:`vidtrack.track.measure.measure_frame`): half
-#: length, half width (px), coverage, misfit, angle (rad), blurs across and along (px).
-BAR_COLUMNS = ("h", "w", "a", "misfit", "angle", "s", "s2")
+__all__ = ["follow_back", "size_z"]
 
 
 #: A point lies in a detection within this many of its spreads from its centre, along
@@ -90,8 +86,8 @@ def follow_back(get, detections, chain, bars, detector, shape, settings):
         Its ``pick``, ``u``, ``v`` and per-frame fields are changed in place for the
         frames followed.
     bars : numpy.ndarray
-        ``(n, 7)``: per frame the bar measured (:data:`BAR_COLUMNS`); set for the frames
-        followed.
+        ``(n, 7)``: per frame the bar measured
+        (:data:`~vidtrack.track.measure.BAR_COLUMNS`); set for the frames followed.
     detector : vidtrack.track.detect.Detector
     shape : vidtrack.track.measure.Shape
     settings : vidtrack.track.settings.TrackerSettings

@@ -24,7 +24,12 @@ from vidtrack.track.ellipse import fit_ellipse
 from vidtrack.track.rod import fit_rod
 from vidtrack.track.path import robust_scale
 
-__all__ = ["Shape", "measure_frame", "rod_at", "chain_shape", "has_highlight"]
+__all__ = ["Shape", "measure_frame", "rod_at", "chain_shape", "has_highlight",
+           "BAR_COLUMNS", "bar_moments"]
+
+#: The per-frame bar of a rod (:func:`measure_frame`): half length, half width (px),
+#: coverage, misfit, angle (rad), blurs across and along (px).
+BAR_COLUMNS = ("h", "w", "a", "misfit", "angle", "s", "s2")
 
 #: Iterations of the mean shift at most, and the step (px) below which it has converged.
 _ITERATIONS = 12
@@ -212,6 +217,17 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
 #: then is its profile the next frame's start (a bar fitted to what the rod touched, a
 #: blade's arm, is not; a rod turning end on, shorter, is).
 PROFILE_RATIO = 1.5
+
+
+def bar_moments(bar):
+    """A bar's weight and second central moments ``(weight, muu, mvv, muv)`` (px^2): its
+    covered area, and its length and width as a uniform bar's (a row of
+    :data:`BAR_COLUMNS`)."""
+    h, w, a, _misfit, angle = bar[:5]
+    c, s = np.cos(angle), np.sin(angle)
+    along, across = (2.0 * h) ** 2 / 12.0, (2.0 * w) ** 2 / 12.0
+    return (4.0 * a * h * w, along * c * c + across * s * s,
+            along * s * s + across * c * c, (along - across) * c * s)
 
 
 def _like(fitted, shape):
