@@ -16,7 +16,7 @@ from vidtrack.errors import VidtrackError
 __all__ = ["TrackerSettings", "ALGORITHM_VERSION"]
 
 #: Changes whenever the flight tracker's results may change for the same settings.
-ALGORITHM_VERSION = "flight-7"
+ALGORITHM_VERSION = "flight-8"
 
 
 @dataclass(frozen=True)
@@ -152,9 +152,10 @@ class TrackerSettings:
         core's convex hull.
     model_max_misfit : float
         A compact object is measured by the ellipse fitted to it only where the ellipse
-        explains it: its RMS residual over its footprint at most this share of its
-        coverage (the synthetic balls 0.02-0.05; an object of another shape, or one a
-        third hidden, more).
+        explains it: its RMS residual over the best-explained 90 % of its footprint
+        (``vidtrack.track.ellipse.EXPLAINED_SHARE``) at most this share of its
+        coverage (the synthetic balls 0.02-0.05, a dark ball with a highlight 0.06; a
+        shuttlecock 0.14, a bear 0.5-1).
     bar_cap_px : float
         A rod's misfit is also taken over the caps beyond its bar's ends, this far along
         (px) and as wide as the bar: something in line with an end (the blade it has
