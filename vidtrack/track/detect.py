@@ -107,9 +107,16 @@ class ShadowTest:
         self.mean_b, self.var_b = _box_stats(self.bg)
         self.textured = self.var_b >= (TEXTURE_SIGMAS * self.noise) ** 2
 
-    def __call__(self, f, candidates, window=None):
+    def __call__(self, f, candidates, window=None, regions=False):
         """The shadow's pixels among ``candidates`` of grey frame ``f`` (float32; a crop
         ``window = (r0, r1, c0, c1)`` of the background's frame), and the light there.
+
+        A pixel is a shadow's where the square round it is dimmed by a shadow's factor
+        (``shadow_ratio_min`` up to 1) with the background's texture kept
+        (``shadow_texture_min``), and the pixel itself is dimmed no more than a shadow
+        dims: at a dark object's edge the square holds enough background to pass, the
+        pixel does not. With ``regions``, only shadow pixels that make a region at least
+        3 px across are kept (an opening): a partly covered rim reads as dimmed too.
 
         Returns
         -------
@@ -137,12 +144,16 @@ class ShadowTest:
         ratio = mean_f / np.maximum(mean_b, 1.0)
         with np.errstate(invalid="ignore", divide="ignore"):
             r = cov / np.sqrt(var_f * var_b)
-        shade = cand & (ratio >= self.ratio_min) & (ratio < 1.0) & (r >= self.texture_min)
+        own = f / np.maximum(b, 1.0)
+        shade = (cand & (ratio >= self.ratio_min) & (ratio < 1.0) & (r >= self.texture_min)
+                 & (own >= self.ratio_min))
+        if regions and shade.any():
+            shade = cv2.morphologyEx(shade.astype(np.uint8), cv2.MORPH_OPEN,
+                                     np.ones((3, 3), np.uint8)).astype(bool)
         if not shade.any():
             return shade, None
-        own = shade.astype(np.float32)
-        dim = np.where(shade, f / np.maximum(b, 1.0), 0.0).astype(np.float32)
-        count = cv2.boxFilter(own, -1, box, normalize=False)
+        dim = np.where(shade, own, 0.0).astype(np.float32)
+        count = cv2.boxFilter(shade.astype(np.float32), -1, box, normalize=False)
         near = count > 0
         light = np.ones_like(f)
         light[near] = cv2.boxFilter(dim, -1, box, normalize=False)[near] / count[near]

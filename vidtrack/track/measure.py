@@ -304,7 +304,7 @@ def _crop(frame, background, sigma, centre, reach, near_px, settings, shadow_tes
     shade = None
     if shadow_test is not None:
         shade, light = shadow_test(f.astype(np.float32), (fg > 0) & (d < 0),
-                                   window=(r0, r1, c0, c1))
+                                   window=(r0, r1, c0, c1), regions=True)
         if light is None:
             shade = None
         else:
