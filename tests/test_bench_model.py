@@ -7,7 +7,8 @@ from vidtrack.bench.model import CASES, ODE_METHODS
 
 
 def test_bench_model_quick_run(vidtrack_cli, tmp_path):
-    out = vidtrack_cli("bench", "model", "--quick", "--out", tmp_path / "b")
+    out = vidtrack_cli("bench", "model", "--quick", "--out", tmp_path / "b", "--repeats", "1",
+                       "--warmup", "0")
     assert out.returncode == 0, out.stderr
     table = pd.read_csv(tmp_path / "b" / "bench_model.csv")
     assert set(table.case) == {c.name for c in CASES}
@@ -25,3 +26,4 @@ def test_bench_model_quick_run(vidtrack_cli, tmp_path):
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
     assert "closed form (vidtrack)" in out.stdout
     assert np.all(table.median_time_s > 0)
+    assert np.all(table.calls >= 1) and np.all(table.cpu_min_s >= 0)

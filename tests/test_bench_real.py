@@ -194,10 +194,12 @@ def test_an_engine_refusing_or_raising_is_a_row_not_the_end_of_the_run():
     def broken():
         raise ValueError("a bug")
 
-    tr, cpu, wall, status, msg = _score.timed_track(refused, "rules", view="front")
+    tr, timing, status, msg = _score.timed_track(refused, "rules", view="front", repeats=2,
+                                                 warmup=0)
     assert tr is None and status == "failed" and msg == "front: no usable point"
-    assert cpu >= 0.0 and wall >= 0.0
-    tr, *_, status, msg = _score.timed_track(broken, "rules", view="front")
+    assert timing.calls == 2 and timing.cpu_min_s >= 0.0 and timing.wall_min_s >= 0.0
+    tr, *_, status, msg = _score.timed_track(broken, "rules", view="front", repeats=1,
+                                             warmup=0)
     assert tr is None and status == "error" and msg == "ValueError: a bug"
 
 
@@ -206,7 +208,8 @@ def test_an_engine_refusing_or_raising_is_a_row_not_the_end_of_the_run():
 COLUMNS = ["clip", "engine", "status", "flight_frames", "unflagged", "median_px", "p95_px",
            "max_px", "rms_px", "fit", "fit_track", "fit_ref", "fit_ratio", "fit_ref_same",
            "track_cpu_s",
-           "decode_cpu_s", "x_decode", "note"]
+           "decode_cpu_s", "x_decode", "note", "track_cpu_median_s", "track_wall_median_s",
+           "decode_wall_s", "x_decode_wall", "calls"]
 
 
 def test_scoreboard_on_balltoss_and_a_synthetic_scene_launcher_absent(real_footage,
@@ -217,11 +220,12 @@ def test_scoreboard_on_balltoss_and_a_synthetic_scene_launcher_absent(real_foota
     os.symlink(real_footage / "balltoss", shared / "data" / "real" / "balltoss")
     out = tmp_path / "out"
     res = run_vidtrack("bench", "track", "--real", "--engine", "rules", "--shared", shared,
-                       "--clips", "balltoss,launcher,synth:shadow/front", "--out", out)
+                       "--clips", "balltoss,launcher,synth:shadow/front", "--out", out,
+                       "--repeats", "1", "--warmup", "0")
     assert res.returncode == 0, res.stderr
     assert "skipped launcher:" in res.stdout and "not there" in res.stdout
     for head in ("clip", "engine", "unflagged", "median px", "p95 px", "max px", "fit",
-                 "cpu s", "x decode"):
+                 "cpu s", "wall s", "x decode", "the min of 1 warm call(s)"):
         assert head in res.stdout
     table = pd.read_csv(out / "bench_track_real.csv")
     assert list(table.columns[:3]) == ["clip", "engine", "status"]
@@ -235,6 +239,7 @@ def test_scoreboard_on_balltoss_and_a_synthetic_scene_launcher_absent(real_foota
                     "fit_ref_same", "track_cpu_s", "decode_cpu_s", "x_decode"):
             assert np.isfinite(r[col]), (clip, col)
         assert 0 < r["unflagged"] <= r["flight_frames"]
+        assert r["calls"] == 1
         assert r["median_px"] <= r["p95_px"] <= r["max_px"]
     # what tests/test_real_footage.py holds the ball to: g within 2 % of the reference's
     assert rows.loc["balltoss", "fit"] == "g m/s2"

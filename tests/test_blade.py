@@ -243,10 +243,12 @@ def test_to_dict_is_json_and_bad_settings_are_refused():
 def test_blade_bench_table():
     from vidtrack.bench.blade import CASES, run_blade_bench
 
-    table = run_blade_bench(cases=CASES[:1], budget_s=0.01)
+    table = run_blade_bench(cases=CASES[:1], budget_s=0.0, repeats=1, warmup=0)
     assert list(table.columns) == ["case", "method", "max_error_m", "error_at_release_m",
                                    "release_time_s", "release_time_error_s",
-                                   "time_per_eval_s"]
+                                   "time_per_eval_s", "cpu_min_s", "cpu_median_s",
+                                   "wall_min_s", "wall_median_s", "calls"]
+    assert (table["calls"] == 1).all()
     rows = table.set_index("method")
     assert rows.loc["exact closed form (vidtrack)", "max_error_m"] < 1e-14
     assert rows.loc["eq. 2 as printed", "max_error_m"] == pytest.approx(1.356e-3, rel=1e-3)

@@ -431,12 +431,15 @@ def test_flag_names():
 def test_bench_track_quick_writes_table_and_plot(tmp_path):
     from vidtrack.bench.track import run_track_bench
 
-    table = run_track_bench(tmp_path, quick=True)
+    table = run_track_bench(tmp_path, quick=True, repeats=1, warmup=0)
     assert list(table["method"][:4]) == ["decode only", "vidtrack", "vidtrack (flight)",
                                          "trackpy.locate"]
     assert table["method"].iloc[4].startswith("opencv ")
     assert (tmp_path / "bench_track.csv").is_file()
     assert (tmp_path / "bench_track.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (table["calls"] == 1).all()
+    assert table["fps_vs_decode"].iloc[0] == table["cpu_vs_decode"].iloc[0] == 1.0
+    assert (table[["fps", "fps_cpu", "cpu_min_s", "wall_min_s"]] > 0).all().all()
     rms = dict(zip(table["method"], table["rms_px"]))
     ours, flight = rms.pop("vidtrack"), rms.pop("vidtrack (flight)")
     assert ours <= 0.25 and flight <= 0.25

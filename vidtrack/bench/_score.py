@@ -7,9 +7,10 @@ distance summary, the drag-free fits, and one engine's timed run on a clip.
 
 import dataclasses
 import logging
-import time
 
 import numpy as np
+
+from vidtrack.bench._timing import timed
 
 log = logging.getLogger(__name__)
 
@@ -168,17 +169,23 @@ def engine_kwargs(engine):
     return {"engine": engine} if hasattr(tracker, "ENGINES") else {}
 
 
-def timed_decode(open_fn):
-    """CPU seconds to iterate every frame of ``open_fn()`` doing nothing."""
-    t0 = time.process_time()
+def decode(open_fn):
+    """Iterate every frame of ``open_fn()`` doing nothing: the number of frames."""
+    n = 0
     with open_fn() as src:
         for _ in src:
-            pass
-    return time.process_time() - t0
+            n += 1
+    return n
 
 
-def timed_track(open_fn, engine, *, view, target=None):
-    """One engine on one clip: ``(track or None, CPU s, wall s, status, message)``.
+def timed_decode(open_fn, *, repeats=3, warmup=1):
+    """Decoding every frame of ``open_fn()``, timed (:func:`vidtrack.bench._timing.timed`;
+    the result is the number of frames)."""
+    return timed(lambda: decode(open_fn), repeats=repeats, warmup=warmup)
+
+
+def track_once(open_fn, engine, *, view, target=None):
+    """One engine on one clip: ``(track or None, status, message)``.
 
     Status ``"ok"``; ``"failed"`` for a :class:`vidtrack.errors.VidtrackError` (the
     engine found no object, or refused: what ``vidtrack fit`` exits 2 on); ``"error"``
@@ -189,7 +196,6 @@ def timed_track(open_fn, engine, *, view, target=None):
     from vidtrack.errors import VidtrackError
     from vidtrack.track.tracker import track
 
-    t0, w0 = time.process_time(), time.perf_counter()
     tr, status, msg = None, "ok", ""
     try:
         with open_fn() as src:
@@ -199,4 +205,13 @@ def timed_track(open_fn, engine, *, view, target=None):
     except Exception as exc:                        # noqa: BLE001  (reported, not hidden)
         log.warning("engine %s on %s view raised", engine, view, exc_info=True)
         status, msg = "error", f"{type(exc).__name__}: {exc}".splitlines()[0]
-    return tr, time.process_time() - t0, time.perf_counter() - w0, status, msg
+    return tr, status, msg
+
+
+def timed_track(open_fn, engine, *, view, target=None, repeats=3, warmup=1):
+    """:func:`track_once`, timed: ``(track or None, Timing, status, message)`` of the
+    last call (a failing engine is timed to its failure)."""
+    t = timed(lambda: track_once(open_fn, engine, view=view, target=target),
+              repeats=repeats, warmup=warmup)
+    tr, status, msg = t.result
+    return tr, t, status, msg

@@ -12,8 +12,11 @@ against the exact solution evaluated with mpmath at 50 significant digits (and i
 release time found there with ``mpmath.findroot``). Columns:
 ``case``, ``method``, ``max_error_m`` (over the slide), ``error_at_release_m`` (at the
 true release time), ``release_time_s`` (each method's own root of l = R cos delta1),
-``release_time_error_s``, ``time_per_eval_s`` (median time of one evaluation of the
-whole slide).
+``release_time_error_s``, ``time_per_eval_s`` (median wall time of one evaluation of
+the whole slide), then ``cpu_min_s``, ``cpu_median_s``, ``wall_min_s``,
+``wall_median_s`` and ``calls`` (:func:`vidtrack.bench._timing.timed`: one warm-up call
+uncounted, then ``repeats`` counted calls and more while they take less than the time
+budget, at most 25).
 """
 
 import math
@@ -23,7 +26,7 @@ import pandas as pd
 
 from fits.blade import (BladeSetting, release, slide_eq2_printed, slide_eq3_series,
                         slide_ode, slide_position)
-from vidtrack.bench._timing import median_time
+from vidtrack.bench._timing import timed
 
 #: (name, setting) pairs; the first is the slide check of docs/predict.md (not published).
 CASES = (
@@ -125,14 +128,16 @@ METHODS = (
 )
 
 
-def run_blade_bench(*, cases=CASES, budget_s=0.1):
+def run_blade_bench(*, cases=CASES, budget_s=0.1, repeats=3, warmup=1):
     """Benchmark every method on every case; returns a DataFrame (see the module doc).
 
     Parameters
     ----------
     cases : sequence of (str, fits.blade.BladeSetting), keyword-only
     budget_s : float, keyword-only
-        Time budget for repeating one method's evaluation (median of the repeats).
+        Time budget for repeating one method's evaluation past ``repeats``.
+    repeats, warmup : int, keyword-only
+        Counted calls of each method (at least), and uncounted calls before them.
     """
     rows = []
     for name, s in cases:
@@ -141,9 +146,9 @@ def run_blade_bench(*, cases=CASES, budget_s=0.1):
         truth = _exact_mp(t, s)
         truth_t0 = float(_exact_mp([t0], s)[0])
         for method, fn in METHODS:
-            sec, slide = median_time(lambda fn=fn, t=t, s=s: fn(t, s), budget_s=budget_s,
-                                     max_repeats=25)
-            err = np.abs(np.asarray(slide) - truth)
+            timing = timed(lambda fn=fn, t=t, s=s: fn(t, s), repeats=repeats, warmup=warmup,
+                           budget_s=budget_s, max_repeats=25)
+            err = np.abs(np.asarray(timing.result) - truth)
             at_release = abs(float(np.asarray(fn(np.array([0.0, t0]), s))[-1]) - truth_t0)
             if hasattr(fn, "ode"):
                 t_rel = _ode_release_time(s, *fn.ode)
@@ -154,5 +159,5 @@ def run_blade_bench(*, cases=CASES, budget_s=0.1):
                          "error_at_release_m": at_release,
                          "release_time_s": t_rel,
                          "release_time_error_s": abs(t_rel - t0),
-                         "time_per_eval_s": sec})
+                         "time_per_eval_s": timing.wall_median_s, **timing.columns()})
     return pd.DataFrame(rows)

@@ -10,30 +10,36 @@ plain decoding.
    plain OpenCV (``cv2.VideoCapture.read`` to the end, nothing else; one video after the
    other, and both at once in two threads, as the command tracks the two views at once),
    in the same run, on footage of the sample run's size (once per seed) and on full-size
-   (1024 wide) footage (one run, timed ``FULL_SIZE_REPEATS`` times: the median). The
-   CPU time of the command (its processes together) is reported beside its wall time.
-   The target is at most 2x; fixed costs (Python start-up, imports, the report's plots)
-   dominate on small footage, decoding on full-size footage.
+   (1024 wide) footage (one run). The target is at most 2x; fixed costs (Python
+   start-up, imports, the report's plots) dominate on small footage, decoding on
+   full-size footage.
+
+Timing (:mod:`vidtrack.bench._timing`): the fit of part 1 is called once uncounted, then
+``repeats`` counted times; in part 2 decoding, decoding at once and the command are
+called in turn, round by round, one warm-up round uncounted (``warmup``) and then
+``repeats`` counted rounds. CPU time counts the process's threads and its child
+processes (the command's processes together). ``bench_fit_command.csv``: the medians of
+the counted calls (``decode_only_s``, ``decode_at_once_s``, ``vidtrack_fit_s`` and
+``vidtrack_fit_cpu_s``; ``ratio`` = vidtrack_fit_s / decode_only_s, ``cpu_ratio`` =
+vidtrack_fit_cpu_s / decode_only_s, ``ratio_to_decode_at_once``), the minima (columns
+ending ``_min_s``), ``decode_only_cpu_s`` (median) and ``cpu_vs_decode_cpu`` (the
+command's CPU over decoding's, minima), ``calls``.
 """
 
 import json
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from vidtrack._atomic import atomic_path
+from vidtrack.bench._timing import timed, timed_each
 
 FPS_STEPS = ((1200, 1), (600, 2), (300, 4), (150, 8))
 K_NAMES = ("k1", "k2", "k3", "k4")
-
-#: Timings of the whole command on the full-size run (the median is reported).
-FULL_SIZE_REPEATS = 7
-
 
 #: (name, front size, top size): the sample run's size, and full-size high-speed frames
 SIZES = (("run42 size", (400, 184), (400, 112)), ("1024 wide", (1024, 768), (1024, 480)))
@@ -50,47 +56,46 @@ def _render(out, seed, size=SIZES[0]):
     return out
 
 
-def _time_command(run, size_name, seed):
-    """``vidtrack fit RUN --force`` against plain decoding of the same videos."""
+def _command(run):
+    """``vidtrack fit RUN --force --quiet`` in a child process."""
+    res = subprocess.run([sys.executable, "-m", "vidtrack", "fit", str(run), "--force",
+                          "--quiet"], capture_output=True, text=True)
+    if res.returncode != 0:
+        raise RuntimeError(f"vidtrack fit failed on a synthetic run: {res.stderr}")
+
+
+def _time_command(run, size_name, seed, *, repeats=3, warmup=1):
+    """``vidtrack fit RUN --force`` against plain decoding of the same videos, in turn."""
     from vidtrack.scene import load_scene
 
     scene = load_scene(run)
     paths = [scene.views[v].source for v in scene.view_names]
-    decode_s, frames = _decode_only(paths)
-    decode_par_s = _decode_at_once(paths)
-    cpu0 = _children_cpu()
-    t0 = time.perf_counter()
-    res = subprocess.run([sys.executable, "-m", "vidtrack", "fit", str(run), "--force",
-                          "--quiet"], capture_output=True, text=True)
-    fit_s = time.perf_counter() - t0
-    cpu_s = _children_cpu() - cpu0
-    if res.returncode != 0:
-        raise RuntimeError(f"vidtrack fit failed on a synthetic run: {res.stderr}")
+    t = timed_each({"decode": lambda: _decode_only(paths),
+                    "at once": lambda: _decode_at_once(paths),
+                    "command": lambda: _command(run)}, repeats=repeats, warmup=warmup)
+    dec, par, cmd = t["decode"], t["at once"], t["command"]
     record = json.loads((run / "vidtrack" / "fit.json").read_text())
     total = record["timings_s"].get("total", np.nan)
-    return {"footage": size_name, "seed": seed, "frames_decoded": frames,
-            "decode_only_s": decode_s, "decode_at_once_s": decode_par_s,
+    decode_s, fit_s = dec.wall_median_s, cmd.wall_median_s
+    return {"footage": size_name, "seed": seed, "frames_decoded": dec.result,
+            "decode_only_s": decode_s, "decode_at_once_s": par.wall_median_s,
             "vidtrack_fit_s": fit_s, "ratio": fit_s / decode_s,
-            "vidtrack_fit_cpu_s": cpu_s, "cpu_ratio": cpu_s / decode_s,
-            "ratio_to_decode_at_once": fit_s / decode_par_s,
+            "vidtrack_fit_cpu_s": cmd.cpu_median_s, "cpu_ratio": cmd.cpu_median_s / decode_s,
+            "ratio_to_decode_at_once": fit_s / par.wall_median_s,
             "in_process_total_s": total, "in_process_ratio": total / decode_s,
             "track_s": record["timings_s"].get("track"),
-            "report_s": record["timings_s"].get("report")}
-
-
-def _children_cpu():
-    """CPU seconds (user + system) of the finished child processes and their own."""
-    import resource
-
-    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return ru.ru_utime + ru.ru_stime
+            "report_s": record["timings_s"].get("report"),
+            "decode_only_min_s": dec.wall_min_s, "decode_at_once_min_s": par.wall_min_s,
+            "vidtrack_fit_min_s": cmd.wall_min_s, "vidtrack_fit_cpu_min_s": cmd.cpu_min_s,
+            "decode_only_cpu_s": dec.cpu_median_s, "decode_only_cpu_min_s": dec.cpu_min_s,
+            "cpu_vs_decode_cpu": cmd.cpu_min_s / dec.cpu_min_s, "calls": cmd.calls}
 
 
 def _decode_only(paths):
+    """Frames read from the videos with plain OpenCV, one after the other."""
     import cv2
 
     frames = 0
-    t0 = time.perf_counter()
     for p in paths:
         cap = cv2.VideoCapture(str(p))
         while True:
@@ -99,21 +104,19 @@ def _decode_only(paths):
                 break
             frames += 1
         cap.release()
-    return time.perf_counter() - t0, frames
+    return frames
 
 
 def _decode_at_once(paths):
-    """Wall time to decode the videos at the same time, one thread each (as the
-    pipeline tracks two views): the fair floor on two cores."""
+    """The videos decoded at the same time, one thread each (as the pipeline tracks two
+    views): the fair floor on two cores."""
     import threading
 
-    t0 = time.perf_counter()
     workers = [threading.Thread(target=_decode_only, args=([p],)) for p in paths]
     for w in workers:
         w.start()
     for w in workers:
         w.join()
-    return time.perf_counter() - t0
 
 
 def _rms(values):
@@ -126,10 +129,11 @@ def _subsample_rows(world, step):
     return world.iloc[::step].reset_index(drop=True)
 
 
-def run_fit_bench(out_dir, *, quick=False, seeds=None):
+def run_fit_bench(out_dir, *, quick=False, seeds=None, repeats=3, warmup=1):
     """Run both parts; write bench_fit.csv, bench_fit_command.csv and bench_fit.png.
 
-    ``kN_coverage`` is the fraction of seeds whose 95 % interval covers the truth.
+    ``kN_coverage`` is the fraction of seeds whose 95 % interval covers the truth;
+    ``repeats`` and ``warmup``: the counted and uncounted calls of each timing.
     """
     from fits.lsq import fit_throw
     from vidtrack.run.pipeline import FitOptions, fit_run
@@ -154,12 +158,13 @@ def run_fit_bench(out_dir, *, quick=False, seeds=None):
             world = read_tracks(run / "vidtrack" / "tracks.h5").world.data
             for fps, step in FPS_STEPS:
                 part = _subsample_rows(world, step)
-                t0 = time.perf_counter()
-                fit = fit_throw(part, scene.cp_s_per_m, g=scene.physics.gravity_m_s2,
-                                v1=scene.v1_m_s)
-                elapsed = time.perf_counter() - t0
+                t = timed(lambda part=part: fit_throw(part, scene.cp_s_per_m,
+                                                      g=scene.physics.gravity_m_s2,
+                                                      v1=scene.v1_m_s),
+                          repeats=repeats, warmup=warmup)
+                fit = t.result
                 row = {"seed": seed, "fps": fps, "points_y": fit.points["y"],
-                       "fit_time_s": elapsed}
+                       "fit_time_s": t.wall_median_s, **t.columns("fit_")}
                 for k in K_NAMES:
                     c = fit.coefficients[k]
                     row[f"{k}_error_pct"] = (100 * (c.value - truth[k]) / truth[k]
@@ -170,12 +175,11 @@ def run_fit_bench(out_dir, *, quick=False, seeds=None):
                                            if c.determined else np.nan)
                 rows.append(row)
             # the whole command against plain decoding, in one run
-            command_rows.append(_time_command(run, SIZES[0][0], seed))
-        # full-size footage: one run timed several times (decoding and the command in
-        # turn), the median taken, as one timing on a shared machine is noisy
+            command_rows.append(_time_command(run, SIZES[0][0], seed, repeats=repeats,
+                                              warmup=warmup))
         big = _render(Path(tmp) / "big", 1, SIZES[1])
-        for _ in range(2 if quick else FULL_SIZE_REPEATS):
-            command_rows.append(_time_command(big, SIZES[1][0], 1))
+        command_rows.append(_time_command(big, SIZES[1][0], 1, repeats=repeats,
+                                          warmup=warmup))
     table = pd.DataFrame(rows)
     command = pd.DataFrame(command_rows)
     summary = (table.groupby("fps", sort=False)
@@ -195,19 +199,33 @@ def run_fit_bench(out_dir, *, quick=False, seeds=None):
             + "\n\nk error against frame rate (RMS over seeds, % of truth) and fit time\n"
             + summary.to_string(index=False, float_format=lambda v: f"{v:.3g}")
             + "\n\nvidtrack fit (whole command, report included) against plain OpenCV "
-              "decoding of the same videos\n"
-            + command.to_string(index=False, float_format=lambda v: f"{v:.3g}")
+              "decoding of the same videos, in turn, round by round\n"
+              f"({_calls(command)} warm calls each; times in s; wall: median, min; CPU: the "
+              "processes together, median, min)\n"
+            + command[COMMAND_SHOWN].to_string(index=False,
+                                               float_format=lambda v: f"{v:.3g}")
             + "\n" + "\n".join(
-                f"median ratio, {name} ({len(grp)} timings): {grp.ratio.median():.2f}x "
+                f"{name} ({len(grp)} run(s)): {grp.ratio.median():.2f}x decoding's wall time "
                 f"(command, with Python start-up; range {grp.ratio.min():.2f}-"
                 f"{grp.ratio.max():.2f}), {grp.in_process_ratio.median():.2f}x (in process); "
                 f"{grp.ratio_to_decode_at_once.median():.2f}x decoding the views at once; "
-                f"CPU {grp.cpu_ratio.median():.2f}x decoding's time"
+                f"CPU {grp.cpu_vs_decode_cpu.median():.2f}x decoding's CPU"
                 for name, grp in command.groupby("footage", sort=False)))
     from vidtrack._atomic import write_text
 
     write_text(out_dir / "bench_fit.txt", text + "\n")
     return text
+
+
+#: The columns of the command's table printed (the CSV has them all).
+COMMAND_SHOWN = ["footage", "seed", "frames_decoded", "decode_only_s", "decode_only_min_s",
+                 "decode_at_once_s", "vidtrack_fit_s", "vidtrack_fit_min_s", "ratio",
+                 "decode_only_cpu_min_s", "vidtrack_fit_cpu_s", "vidtrack_fit_cpu_min_s",
+                 "cpu_vs_decode_cpu", "in_process_ratio"]
+
+
+def _calls(command):
+    return int(command["calls"].max()) if len(command) else 0
 
 
 def _plot(summary, path):

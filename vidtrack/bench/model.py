@@ -13,6 +13,13 @@ against truth from ``fits.throw.mp`` (the textbook solution at 50 significant di
 One evaluation is the whole trajectory at the case's time points. ``max_rel_error`` is
 the max error over the largest coordinate of the trajectory (the extreme case falls
 about 1.2e5 m, where float64 rounding alone is 1e-11 m).
+
+Timing (:func:`vidtrack.bench._timing.timed`): each method is called once uncounted, then
+``repeats`` counted times and more while its counted calls take less than the time
+budget (at most 25 calls; 5 for solve_ivp). ``median_time_s`` is the median wall time
+of the counted calls, ``time_vs_closed_form`` its ratio to the closed form's;
+``cpu_min_s``, ``cpu_median_s``, ``wall_min_s``, ``wall_median_s`` and ``calls`` the
+rest, ``cpu_vs_closed_form`` the ratio of the CPU minima.
 """
 
 import math
@@ -25,11 +32,14 @@ from fits.throw import position
 from fits.throw.mp import position_mp
 from fits.throw.ode import solve_throw
 from fits.throw.printed import printed_position
-from vidtrack.bench._timing import median_time
+from vidtrack.bench._timing import timed
 
 ODE_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
 RTOLS = (1e-3, 1e-6, 1e-9, 1e-12)
-
+#: Most counted calls of a closed form and of a solve_ivp run.
+MAX_CALLS, MAX_CALLS_ODE = 25, 5
+TIMING_NOTE = ("(warm calls, a time budget each; wall s: median; CPU s: min and median; "
+               "x closed form: median wall, and min CPU)")
 
 @dataclass(frozen=True)
 class ModelCase:
@@ -59,48 +69,58 @@ CASES = (
 )
 
 
-def _row(case, method, rtol, seconds, xyz, truth):
+def _row(case, method, rtol, timing, truth):
+    xyz = timing.result
     err = np.abs(xyz - truth)
     max_err = float(np.max(err)) if np.all(np.isfinite(xyz)) else math.inf
     return {"case": case.name, "method": method, "rtol": rtol, "max_error_m": max_err,
             "max_rel_error": max_err / float(np.max(np.abs(truth))),
-            "median_time_s": seconds, "points": case.points}
+            "median_time_s": timing.wall_median_s, "points": case.points,
+            **timing.columns()}
 
 
-def run_case(case, *, methods=ODE_METHODS, rtols=RTOLS, budget_s=0.3):
+def run_case(case, *, methods=ODE_METHODS, rtols=RTOLS, budget_s=0.3, repeats=3, warmup=1):
     """Benchmark one case; returns a DataFrame (one row per method and tolerance)."""
     t = case.t_s
     truth = position_mp(t, case.state, case.k, case.cp_s_per_m, v1=case.v1_m_s)
     rows = []
-    sec, xyz = median_time(lambda: position(t, case.state, case.k, case.cp_s_per_m,
-                                            v1=case.v1_m_s), budget_s=budget_s)
-    rows.append(_row(case, "closed form (vidtrack)", np.nan, sec, xyz, truth))
+
+    def timing(fn, max_repeats=MAX_CALLS):
+        return timed(fn, repeats=repeats, warmup=warmup, budget_s=budget_s,
+                     max_repeats=max_repeats)
+    rows.append(_row(case, "closed form (vidtrack)", np.nan,
+                     timing(lambda: position(t, case.state, case.k, case.cp_s_per_m,
+                                             v1=case.v1_m_s)), truth))
     # the printed form subtracts vz0 t for z (the paper's vz0 = v1): our cases have vz0 = v1
     with np.errstate(all="ignore"):
-        sec, xyz = median_time(lambda: printed_position(t, case.state, case.k,
-                                                        case.cp_s_per_m), budget_s=budget_s)
-    rows.append(_row(case, "printed eqs. 12-18", np.nan, sec, xyz, truth))
+        rows.append(_row(case, "printed eqs. 12-18", np.nan,
+                         timing(lambda: printed_position(t, case.state, case.k,
+                                                         case.cp_s_per_m)), truth))
     for method in methods:
         for rtol in rtols:
             def solve(method=method, rtol=rtol):
                 return solve_throw(t, case.state, case.k, case.cp_s_per_m, v1=case.v1_m_s,
                                    method=method, rtol=rtol, atol=rtol * 1e-3)
-            sec, xyz = median_time(solve, budget_s=budget_s, max_repeats=5)
-            rows.append(_row(case, f"solve_ivp {method}", rtol, sec, xyz, truth))
+            rows.append(_row(case, f"solve_ivp {method}", rtol,
+                             timing(solve, MAX_CALLS_ODE), truth))
     return pd.DataFrame(rows)
 
 
-def run_model_bench(*, cases=CASES, quick=False, progress=None):
-    """Every case; ``quick`` keeps only rtol 1e-3 and 1e-9 (for tests and smoke runs)."""
+def run_model_bench(*, cases=CASES, quick=False, progress=None, repeats=3, warmup=1):
+    """Every case; ``quick`` keeps only rtol 1e-3 and 1e-9 and a smaller time budget
+    (for tests and smoke runs). ``repeats`` and ``warmup``: :func:`run_case`'s."""
     rtols = (1e-3, 1e-9) if quick else RTOLS
     frames = []
     for case in cases:
-        frames.append(run_case(case, rtols=rtols, budget_s=0.05 if quick else 0.3))
+        frames.append(run_case(case, rtols=rtols, budget_s=0.05 if quick else 0.3,
+                               repeats=repeats, warmup=warmup))
         if progress is not None:
             progress(case.name)
     table = pd.concat(frames, ignore_index=True)
-    closed = table[table.method == "closed form (vidtrack)"].set_index("case")["median_time_s"]
-    table["time_vs_closed_form"] = table["median_time_s"] / table["case"].map(closed)
+    closed = table[table.method == "closed form (vidtrack)"].set_index("case")
+    table["time_vs_closed_form"] = (table["median_time_s"]
+                                    / table["case"].map(closed["median_time_s"]))
+    table["cpu_vs_closed_form"] = table["cpu_min_s"] / table["case"].map(closed["cpu_min_s"])
     return table
 
 
@@ -144,5 +164,9 @@ def format_table(table):
     shown["max_rel_error"] = shown["max_rel_error"].map(lambda v: f"{v:.2g}")
     shown["median_time_s"] = shown["median_time_s"].map(lambda v: f"{v:.2g}")
     shown["time_vs_closed_form"] = shown["time_vs_closed_form"].map(lambda v: f"{v:.3g}x")
+    for col in ("cpu_min_s", "cpu_median_s"):
+        shown[col] = shown[col].map(lambda v: f"{v:.2g}")
+    shown["cpu_vs_closed_form"] = shown["cpu_vs_closed_form"].map(lambda v: f"{v:.3g}x")
     return shown[["case", "method", "rtol", "max_error_m", "max_rel_error",
-                  "median_time_s", "time_vs_closed_form"]].to_string(index=False)
+                  "median_time_s", "time_vs_closed_form", "cpu_min_s", "cpu_median_s",
+                  "cpu_vs_closed_form", "calls"]].to_string(index=False)

@@ -17,16 +17,22 @@ default) filmed by pinhole cameras, several seeds each:
   give).
 
 Every reading is a whole ``vidtrack fit`` of the run in process (tracking, merge or
-triangulation, fit; no report), timed by wall clock. The straw is 0.12 m x 0.02 m: a
-longer straw slanted in depth shows its silhouette's centroid off its projected centre
-(up to f L^2 / (8 depth^2) px), which the calibrated reading corrects for
-(``vidtrack.world.rod_centroid``; docs/synth.md).
+triangulation, fit; no report), timed beside decoding the run's videos (iterating their
+frames, as the tracker reads them), in turn, round by round: one warm-up round uncounted,
+then ``repeats`` counted rounds (:mod:`vidtrack.bench._timing`; CPU time counts the
+process's threads and its child processes, which track the second view). Columns of
+``bench_perspective.csv`` on time: ``fit_s`` (wall, median), ``fit_cpu_min_s``,
+``fit_cpu_median_s``, ``fit_wall_min_s``, ``fit_wall_median_s``, ``fit_calls``,
+``decode_cpu_s`` (min) and ``x_decode`` (decode_cpu_s / fit_cpu_min_s).
+
+The straw is 0.12 m x 0.02 m: a longer straw slanted in depth shows its silhouette's
+centroid off its projected centre (up to f L^2 / (8 depth^2) px), which the calibrated
+reading corrects for (``vidtrack.world.rod_centroid``; docs/synth.md).
 Benchmarks are not tests: nothing here asserts a time.
 """
 
 import json
 import tempfile
-import time
 import tomllib
 from pathlib import Path
 
@@ -34,6 +40,7 @@ import numpy as np
 import pandas as pd
 
 from vidtrack._atomic import atomic_path, write_text
+from vidtrack.bench._timing import timed, timed_each
 
 K_NAMES = ("k1", "k2", "k3", "k4")
 LENS = (-0.12, 0.03, 0.0005, -0.0003, 0.0)
@@ -89,11 +96,18 @@ def _reading_scene(run, reading, truth):
     return data
 
 
-def _fit(folder, rod="default"):
-    """One whole fit of a run folder in process: (record, wall time). The warnings of
-    accepted disagreements are not logged (the table counts them). ``rod``: the rod
-    correction for this fit (``triangulate_views(rod=...)``: a taper or None) instead of
-    the default."""
+def _fit(folder, rod="default", *, repeats=1, warmup=0):
+    """A whole fit of a run folder in process, timed (:func:`_fit_once`): ``(record,
+    Timing)``."""
+    t = timed(lambda: _fit_once(folder, rod), repeats=repeats, warmup=warmup)
+    return t.result, t
+
+
+def _fit_once(folder, rod="default"):
+    """One whole fit of a run folder in process: its record. The warnings of accepted
+    disagreements are not logged (the table counts them). ``rod``: the rod correction
+    for this fit (``triangulate_views(rod=...)``: a taper or None) instead of the
+    default."""
     import functools
     import logging
 
@@ -107,16 +121,25 @@ def _fit(folder, rod="default"):
     if rod != "default":
         calibrated.triangulate_views = functools.partial(triangulate, rod=rod)
     try:
-        t0 = time.perf_counter()
-        record = fit_run(folder, FitOptions(force=True, report=False,
-                                            accept_disagreement=True))
-        return record, time.perf_counter() - t0
+        return fit_run(folder, FitOptions(force=True, report=False, accept_disagreement=True))
     finally:
         calibrated.triangulate_views = triangulate
         log.setLevel(level)
 
 
-def _row(rig, cameras, angle, distance, reading, seed, record, elapsed, truth_k):
+def _decode(run, truth):
+    """Iterate every frame of the run's videos doing nothing: the number of frames."""
+    from vidtrack.footage import open_source
+
+    n = 0
+    for about in truth["views"].values():
+        with open_source(run / about["source"], fps=about["fps"]) as src:
+            for _ in src:
+                n += 1
+    return n
+
+
+def _row(rig, cameras, angle, distance, reading, seed, record, timing, decode, truth_k):
     row = {"rig": rig, "cameras": cameras, "angle_deg": angle, "distance_m": distance,
            "reading": reading, "seed": seed}
     for k in K_NAMES:
@@ -130,17 +153,22 @@ def _row(rig, cameras, angle, distance, reading, seed, record, elapsed, truth_k)
     row["findings"] = ",".join(sorted({c["check"] for c in record.get("checks") or []}))
     rod = world.get("rod_correction") or {}
     row["rod_median_px"], row["rod_max_px"] = rod.get("median_px"), rod.get("max_px")
-    row["fit_s"] = elapsed
+    row["fit_s"] = timing.wall_median_s
+    row.update(timing.columns("fit_"))
+    row["decode_cpu_s"] = decode.cpu_min_s
+    row["x_decode"] = decode.cpu_min_s / timing.cpu_min_s
     return row
 
 
-def run_perspective_bench(out_dir, *, quick=False, seeds=None, progress=None):
+def run_perspective_bench(out_dir, *, quick=False, seeds=None, progress=None, repeats=3,
+                          warmup=1):
     """Render and fit every rig and reading; write bench_perspective.csv and .txt.
 
     Returns the printable table: per rig and reading, the mean error of k1..k4 (% of
-    truth) over the seeds with its standard deviation, and the median fit time.
+    truth) over the seeds with its standard deviation, the median fit time and its CPU
+    time against decoding's. ``repeats`` and ``warmup``: the counted and uncounted calls
+    of each fit and of decoding.
     """
-    from vidtrack.errors import INPUT_ERRORS
     from vidtrack.scene import write_scene
     from vidtrack.synth import render_run
 
@@ -151,10 +179,12 @@ def run_perspective_bench(out_dir, *, quick=False, seeds=None, progress=None):
         for rig, cameras, angle, distance in RIGS:
             for seed in seeds:
                 run = Path(tmp) / f"{cameras}-{angle:g}-{distance:g}-{seed}"
-                t0 = time.perf_counter()
-                render_run(run, _spec(cameras, angle, distance, seed))
-                renders.append(time.perf_counter() - t0)
+                render = timed(lambda run=run: render_run(run, _spec(cameras, angle,
+                                                                     distance, seed)),
+                               repeats=1, warmup=0)
+                renders.append(render.wall_min_s)
                 truth = json.loads((run / "truth.json").read_text())
+                folders = {}
                 for reading in READINGS[cameras]:
                     folder = run
                     if cameras == "square":
@@ -162,15 +192,21 @@ def run_perspective_bench(out_dir, *, quick=False, seeds=None, progress=None):
                             f"{'-d' if 'camera_distance' in reading else ''}"
                         folder.mkdir()
                         write_scene(folder, _reading_scene(run, reading, truth))
-                    try:
-                        record, elapsed = _fit(folder, "uniform" if reading == ROD_AS_DRAWN
+                    folders[reading] = folder
+                runs = {"": lambda run=run, truth=truth: _decode(run, truth)}
+                runs.update({reading: _guarded(folder, "uniform" if reading == ROD_AS_DRAWN
                                                else "default")
-                    except INPUT_ERRORS as exc:       # a failure is a result: name it
+                             for reading, folder in folders.items()})
+                times = timed_each(runs, repeats=repeats, warmup=warmup)
+                decode = times.pop("")
+                for reading, timing in times.items():
+                    record = timing.result
+                    if isinstance(record, Exception):      # a failure is a result: name it
                         failures.append(f"{rig}, {reading}, seed {seed}: "
-                                        f"{type(exc).__name__}: {exc}")
+                                        f"{type(record).__name__}: {record}")
                         continue
                     rows.append(_row(rig, cameras, angle, distance, reading, seed, record,
-                                     elapsed, truth["truth"]["k"]))
+                                     timing, decode, truth["truth"]["k"]))
                 if progress is not None:
                     progress(f"{rig} seed {seed}")
     table = pd.DataFrame(rows)
@@ -181,10 +217,25 @@ def run_perspective_bench(out_dir, *, quick=False, seeds=None, progress=None):
     return text
 
 
+def _guarded(folder, rod):
+    """:func:`_fit_once` of ``folder`` as a function of no argument that returns the
+    input error it raises instead of raising it."""
+    from vidtrack.errors import INPUT_ERRORS
+
+    def fit():
+        try:
+            return _fit_once(folder, rod)
+        except INPUT_ERRORS as exc:
+            return exc
+    return fit
+
+
 def _summary_text(table, seeds, failures, renders):
     lines = [f"Perspective cameras: k error (% of truth, mean +- sd over {len(seeds)} "
-             "seed(s)) and the whole fit's time (median, s, tracking included); noise and "
-             "MJPG compression on"]
+             "seed(s)) and the whole fit's time (tracking included; fit_s: wall, median of the "
+             "counted calls; cpu_s: CPU, min, child processes included; x decode: decoding "
+             "the run's CPU time over the fit's, minima, measured in turn in the same run); "
+             "noise and MJPG compression on"]
     lines += [f"  failed: {f}" for f in failures]
     if not len(table):
         return "\n".join(lines)
@@ -205,6 +256,8 @@ def _summary_text(table, seeds, failures, renders):
         found = sorted({f for s in grp["findings"] for f in s.split(",") if f})
         row["cross-checks"] = ",".join(found) or "pass"
         row["fit_s"] = f"{grp['fit_s'].median():.2f}"
+        row["cpu_s"] = f"{grp['fit_cpu_min_s'].median():.2f}"
+        row["x_decode"] = f"{grp['x_decode'].median():.3f}"
         out.append(row)
     lines += ["", pd.DataFrame(out).to_string(index=False),
               "", f"rendering: median {np.median(renders):.1f} s per run "

@@ -22,7 +22,15 @@ what a perfect track flagged alike gives), ``track_cpu_s`` (CPU seconds of the
 ``track()`` call, opening the footage included), ``track_wall_s``, ``decode_cpu_s``
 (CPU seconds to decode the same frames, measured in the same run), ``x_decode``
 (decode_cpu_s / track_cpu_s: the tracker's speed as a share of decoding's; 1 is the
-limit), ``note``.
+limit), ``note``, then ``track_cpu_median_s``, ``track_wall_median_s``,
+``decode_cpu_median_s``, ``decode_wall_s``, ``decode_wall_median_s``, ``x_decode_wall``
+(decode_wall_s / track_wall_s) and ``calls``.
+
+Timing (:mod:`vidtrack.bench._timing`): per clip, decoding and each engine are called in
+turn, round by round, one warm-up round uncounted (``warmup``) and then ``repeats``
+counted rounds; a figure without ``median`` in its name is the min of the counted calls
+(CPU time: the process's threads and its child processes), and the track scored is the
+last call's. An engine that fails is timed to its failure.
 
 Per clip (reference; alignment; ``fit``):
 
@@ -52,8 +60,9 @@ import numpy as np
 import pandas as pd
 
 from vidtrack._atomic import atomic_path, write_text
-from vidtrack.bench._score import (Score, accel_2d, descent_over_ascent, linear_drag_k,
-                                   quadratic_accel, timed_decode, timed_track)
+from vidtrack.bench._score import (Score, accel_2d, decode, descent_over_ascent,
+                                   linear_drag_k, quadratic_accel, track_once)
+from vidtrack.bench._timing import timed_each
 
 __all__ = ["clip_names", "REAL_CLIPS", "Clip", "default_shared", "select_clips", "engines_to_run",
            "score_launcher", "score_balltoss", "score_bear", "score_diabolo",
@@ -400,19 +409,30 @@ def default_shared():
 # ------------------------------------------------------------------- the run
 
 
-def _rows_of(name, engines, open_fn, score_fn, *, view, target, progress):
-    """One clip: decode once, then each engine tracked and scored (a row each)."""
-    dec = timed_decode(open_fn)
+def _rows_of(name, engines, open_fn, score_fn, *, view, target, progress, repeats, warmup):
+    """One clip: decoding and each engine in turn, round by round; a row per engine."""
+    runs = {"": lambda: decode(open_fn)}           # no engine is named ""
+    runs.update({engine: (lambda engine=engine: track_once(open_fn, engine, view=view,
+                                                            target=target))
+                 for engine in engines})
+    times = timed_each(runs, repeats=repeats, warmup=warmup)
+    dec = times.pop("")
     rows = []
-    for engine in engines:
-        tr, cpu, wall, status, msg = timed_track(open_fn, engine, view=view, target=target)
+    for engine, t in times.items():
+        tr, status, msg = t.result
         row = {"clip": name, "engine": engine}
         if tr is None:
             row.update(status=status, note=msg)
         else:
             row.update(status="ok", **score_fn(tr).to_row())
-        row.update(track_cpu_s=cpu, track_wall_s=wall, decode_cpu_s=dec,
-                   x_decode=dec / cpu if cpu > 0 else float("nan"))
+        cpu, wall = t.cpu_min_s, t.wall_min_s
+        row.update(track_cpu_s=cpu, track_wall_s=wall, decode_cpu_s=dec.cpu_min_s,
+                   x_decode=dec.cpu_min_s / cpu if cpu > 0 else float("nan"),
+                   track_cpu_median_s=t.cpu_median_s, track_wall_median_s=t.wall_median_s,
+                   decode_cpu_median_s=dec.cpu_median_s, decode_wall_s=dec.wall_min_s,
+                   decode_wall_median_s=dec.wall_median_s,
+                   x_decode_wall=dec.wall_min_s / wall if wall > 0 else float("nan"),
+                   calls=t.calls)
         rows.append(row)
         if progress:
             progress(f"{name} ({engine})")
@@ -426,11 +446,13 @@ def _skipped(name, why):
 COLUMNS = ["clip", "engine", "status", "flight_frames", "unflagged", "unflagged_frac",
            "scored", "median_px", "p95_px", "max_px", "rms_px", "fit", "fit_track",
            "fit_ref", "fit_ratio", "fit_ref_same", "track_cpu_s", "track_wall_s", "decode_cpu_s",
-           "x_decode", "note"]
+           "x_decode", "note", "track_cpu_median_s", "track_wall_median_s",
+           "decode_cpu_median_s", "decode_wall_s", "decode_wall_median_s", "x_decode_wall",
+           "calls"]
 
 
 def run_scoreboard(out_dir, *, shared=None, engines=None, clips=None, quick=False,
-                   progress=None):
+                   progress=None, repeats=3, warmup=1):
     """Track every clip with every engine, score each, write ``bench_track_real.csv``.
 
     Parameters
@@ -449,6 +471,10 @@ def run_scoreboard(out_dir, *, shared=None, engines=None, clips=None, quick=Fals
         badminton cameras at 2048 x 1536), saying so.
     progress : callable, optional
         Called with a short text after each clip and engine.
+    repeats : int, keyword-only
+        Counted calls of decoding and of each engine per clip (1 allowed).
+    warmup : int, keyword-only
+        Uncounted calls of each before them (0: time cold calls).
 
     Returns
     -------
@@ -488,7 +514,8 @@ def run_scoreboard(out_dir, *, shared=None, engines=None, clips=None, quick=Fals
 
         rows += _rows_of(clip.name, engines, open_fn,
                          lambda tr, clip=clip, ref=ref: clip.score(tr, ref),
-                         view=clip.view, target=target, progress=progress)
+                         view=clip.view, target=target, progress=progress,
+                         repeats=repeats, warmup=warmup)
     wanted = {}
     for n in names:
         if n.startswith("synth:"):
@@ -508,7 +535,8 @@ def run_scoreboard(out_dir, *, shared=None, engines=None, clips=None, quick=Fals
 
                     rows += _rows_of(f"synth:{scene}/{view}", engines, open_fn,
                                      lambda tr, about=about: scenes.score_view(tr, about),
-                                     view=view, target=None, progress=progress)
+                                     view=view, target=None, progress=progress,
+                                     repeats=repeats, warmup=warmup)
     table = pd.DataFrame(rows).reindex(columns=COLUMNS)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -520,6 +548,11 @@ def run_scoreboard(out_dir, *, shared=None, engines=None, clips=None, quick=Fals
 
 def _num(x, fmt):
     return "" if x is None or not np.isfinite(x) else format(x, fmt)
+
+
+def _calls(table):
+    calls = table["calls"].dropna() if "calls" in table else ()
+    return int(calls.max()) if len(calls) else 0
 
 
 def format_scoreboard(table):
@@ -543,16 +576,19 @@ def format_scoreboard(table):
             line.update({"unflagged": r["status"]})
             failed.append(f"  {r['status']} {r['clip']} ({r['engine']}): {r['note']}")
         line.update({"cpu s": _num(r["track_cpu_s"], ".2f"),
+                     "wall s": _num(r["track_wall_s"], ".2f"),
                      "x decode": _num(r["x_decode"], ".2f")})
         shown.append(line)
     cols = ["clip", "engine", "unflagged", "median px", "p95 px", "max px", "rms px", "fit",
-            "track", "ref", "ratio", "ref same", "cpu s", "x decode"]
+            "track", "ref", "ratio", "ref same", "cpu s", "wall s", "x decode"]
     text = ["Tracker scoreboard: frames unflagged of the flight; distance from the "
             "reference (px);",
             "a fit's figure from the track (track), from the reference's own points (ref) "
             "and from them",
             "on the frames the track's figure used (ref same);",
-            "CPU s of track() and decode-only CPU time / track CPU time (x decode)", ""]
+            "CPU s and wall s of track() and decode-only CPU time / track CPU time (x decode),",
+            f"the min of {_calls(table)} warm call(s) each, decoding and the engines in turn "
+            "(CPU: threads and child processes included)", ""]
     if shown:
         width = max(len(x["clip"]) for x in shown)
         shown = pd.DataFrame(shown).reindex(columns=cols).fillna("")

@@ -17,34 +17,48 @@ vidtrack finds the straw itself. Errors are against ``truth.json`` on the frames
 the straw is in free flight, wholly in view and touches nothing else (``scored``), and
 only where the method gives a position it would hand to a fit (vidtrack: unflagged
 frames; the others: every position they return). trackpy and the OpenCV tracker, being
-slow at full size, run on the first ``alt_frames`` frames after the start.
+slow at full size, run on the first ``alt_frames`` frames after the start, read into
+memory before they are timed.
 
-Columns of ``bench_track.csv``: ``method``, ``fps`` (frames per second, median of
-repeats), ``fps_vs_decode``, ``rms_px`` and ``max_px`` (centroid error), ``frames_scored``
-(positions compared with truth), ``frames_clean`` (clean frames among those the method
-ran on), ``frames_run``, ``note``.
+Timing (:mod:`vidtrack.bench._timing`): decoding and the vidtrack engines are called in
+turn, round by round, one warm-up round uncounted and then ``repeats`` counted rounds;
+trackpy and the OpenCV tracker each ``min(3, repeats)`` counted calls after their own
+warm-up. Each call's CPU time (the process's threads and its children) and wall time are
+kept; the table gives their min and median and the ratios to decoding measured in the
+same run.
+
+Columns of ``bench_track.csv``: ``method``, ``fps`` (frames per second of wall time,
+median of the counted calls), ``fps_vs_decode`` (``fps`` over decoding's),
+``rms_px`` and ``max_px`` (centroid error), ``frames_scored`` (positions compared with
+truth), ``frames_clean`` (clean frames among those the method ran on), ``frames_run``,
+``note``, ``fps_cpu`` (frames per second of CPU time, min of the counted calls),
+``cpu_vs_decode`` (``fps_cpu`` over decoding's: the method's speed as a share of
+decoding's, 1 the limit), ``cpu_min_s``, ``cpu_median_s``, ``wall_min_s``,
+``wall_median_s`` (seconds per call) and ``calls`` (counted calls).
 """
 
 import math
-import statistics
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from vidtrack._atomic import atomic_path
+from vidtrack.bench._timing import timed, timed_each
 
-__all__ = ["run_track_bench", "opencv_tracker", "plot_track_bench", "QUICK", "FULL"]
+__all__ = ["run_track_bench", "format_track_bench", "opencv_tracker", "plot_track_bench",
+           "QUICK", "FULL", "COLUMNS"]
 
 #: Tracker engines timed beside the default one (``vidtrack``), each a row
 #: ``vidtrack (ENGINE)``.
 _OTHER_ENGINES = ("flight",)
 
 #: Footage of the quick and the full benchmark.
-QUICK = {"size_px": (320, 240), "frames": 150, "alt_frames": 150, "repeats": 1}
-FULL = {"size_px": (1024, 1024), "frames": 400, "alt_frames": 80, "repeats": 3}
+QUICK = {"size_px": (320, 240), "frames": 150, "alt_frames": 150}
+FULL = {"size_px": (1024, 1024), "frames": 400, "alt_frames": 80}
+#: Most counted calls of the alternatives (slow: trackpy runs at a few frames/s).
+ALT_REPEATS = 3
 
 
 def opencv_tracker():
@@ -92,28 +106,31 @@ def _score(pos, per_frame, clean, ran):
 
 
 def _decode(path, fps):
+    """Frames decoded iterating the source, doing nothing with them."""
     from vidtrack.footage import open_source
 
-    t0 = time.perf_counter()
     with open_source(path, fps=fps) as src:
         n = 0
         for _ in src:
             n += 1
-    return n / (time.perf_counter() - t0)
+    return n
 
 
 def _ours(path, fps, engine=None):
+    """The track of one whole run of :func:`vidtrack.track.tracker.track` on the file."""
     from vidtrack.footage import open_source
     from vidtrack.track.tracker import track
 
-    t0 = time.perf_counter()
     with open_source(path, fps=fps) as src:
-        tr = track(src, view="front") if engine is None else track(src, view="front",
-                                                                   engine=engine)
-    rate = len(tr.data) / (time.perf_counter() - t0)
+        return track(src, view="front") if engine is None else track(src, view="front",
+                                                                     engine=engine)
+
+
+def _positions(tr):
+    """The track's positions, NaN where flagged."""
     pos = tr.data[["u_px", "v_px"]].to_numpy(dtype=float).copy()
     pos[~tr.usable] = np.nan
-    return rate, pos
+    return pos
 
 
 def _start_frame(per_frame, clean):
@@ -121,23 +138,31 @@ def _start_frame(per_frame, clean):
     return int(idx[0])
 
 
-def _trackpy(path, fps, per_frame, start, count, length_px):
+def _frames(path, fps, start, count, n):
+    """Frames ``start`` to ``start + count`` (at most ``n``) in memory."""
+    from vidtrack.footage import open_source
+
+    with open_source(path, fps=fps) as src:
+        return [src[i] for i in range(start, min(n, start + count))]
+
+
+def _trackpy_diameter(length_px):
+    return 2 * int(math.ceil(0.5 * length_px)) + 3
+
+
+def _trackpy(frames, per_frame, start, diameter):
+    """trackpy.locate on each frame, the feature nearest the previous position:
+    ``(positions, ran)``."""
     import warnings
 
     import trackpy
 
-    from vidtrack.footage import open_source
-
     trackpy.quiet()
-    diameter = 2 * int(math.ceil(0.5 * length_px)) + 3
     n = len(per_frame)
     pos = np.full((n, 2), np.nan)
     ran = np.zeros(n, bool)
     prev = per_frame.loc[start, ["u_px", "v_px"]].to_numpy(dtype=float)
     gate = 0.5 * diameter
-    with open_source(path, fps=fps) as src:
-        frames = [src[i] for i in range(start, min(n, start + count))]
-    t0 = time.perf_counter()
     for k, frame in enumerate(frames):
         i = start + k
         ran[i] = True
@@ -152,23 +177,19 @@ def _trackpy(path, fps, per_frame, start, count, length_px):
             if d[j] <= gate:
                 pos[i] = xy[j]
                 prev = xy[j]
-    rate = len(frames) / (time.perf_counter() - t0)
-    return rate, pos, ran, diameter
+    return pos, ran
 
 
-def _opencv(path, fps, per_frame, start, count, length_px):
-    from vidtrack.footage import open_source
-
-    name, factory = opencv_tracker()
-    n = len(per_frame)
-    pos = np.full((n, 2), np.nan)
-    ran = np.zeros(n, bool)
+def _opencv_box(per_frame, start, length_px):
     side = int(math.ceil(length_px)) + 4
     u, v = per_frame.loc[start, ["u_px", "v_px"]].to_numpy(dtype=float)
-    box = (int(round(u - 0.5 * (side - 1))), int(round(v - 0.5 * (side - 1))), side, side)
-    with open_source(path, fps=fps) as src:
-        frames = [src[i] for i in range(start, min(n, start + count))]
-    t0 = time.perf_counter()
+    return (int(round(u - 0.5 * (side - 1))), int(round(v - 0.5 * (side - 1))), side, side)
+
+
+def _opencv(frames, factory, n, start, box):
+    """An OpenCV tracker started on ``box`` in the first frame: ``(positions, ran)``."""
+    pos = np.full((n, 2), np.nan)
+    ran = np.zeros(n, bool)
     tracker = factory()
     tracker.init(frames[0], box)
     pos[start] = (box[0] + 0.5 * (box[2] - 1), box[1] + 0.5 * (box[3] - 1))
@@ -179,8 +200,7 @@ def _opencv(path, fps, per_frame, start, count, length_px):
         ok, b = tracker.update(frame)
         if ok:
             pos[i] = (b[0] + 0.5 * (b[2] - 1), b[1] + 0.5 * (b[3] - 1))
-    rate = len(frames) / (time.perf_counter() - t0)
-    return name, rate, pos, ran
+    return pos, ran
 
 
 def plot_track_bench(table, path):
@@ -214,7 +234,13 @@ def plot_track_bench(table, path):
     plt.close(fig)
 
 
-def run_track_bench(out_dir, *, quick=False):
+def _speed(timing, frames):
+    """A method's timing columns for ``frames`` frames a call."""
+    return {"fps": frames / timing.wall_median_s, "fps_cpu": frames / timing.cpu_min_s,
+            **timing.columns()}
+
+
+def run_track_bench(out_dir, *, quick=False, repeats=3, warmup=1):
     """Run the tracking benchmark; write ``bench_track.csv`` and ``bench_track.png``.
 
     Parameters
@@ -222,8 +248,13 @@ def run_track_bench(out_dir, *, quick=False):
     out_dir : str or os.PathLike
         Folder for the outputs (created).
     quick : bool, keyword-only
-        320 x 240, 150 frames, one repeat (seconds) instead of 1024 x 1024, 400 frames,
-        three repeats (a few minutes, mostly rendering and trackpy).
+        320 x 240, 150 frames (seconds) instead of 1024 x 1024, 400 frames (a few
+        minutes, mostly rendering and trackpy).
+    repeats : int, keyword-only
+        Counted calls of decoding and of each vidtrack engine (round by round); trackpy
+        and the OpenCV tracker make ``min(3, repeats)``.
+    warmup : int, keyword-only
+        Uncounted calls of each before them (0: time cold calls).
 
     Returns
     -------
@@ -240,6 +271,7 @@ def run_track_bench(out_dir, *, quick=False):
     cfg = QUICK if quick else FULL
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    alt_repeats = min(ALT_REPEATS, repeats)
     with tempfile.TemporaryDirectory(prefix="vidtrack-bench-track-") as tmp:
         path, truth = _render(Path(tmp) / "run", cfg)
         fps = truth["fps"]
@@ -247,50 +279,89 @@ def run_track_bench(out_dir, *, quick=False):
         clean = _clean(per_frame)
         n = len(per_frame)
         everything = np.ones(n, bool)
-        dec_rates, our_rates, other_rates = [], [], {e: [] for e in _OTHER_ENGINES}
-        pos, other_pos = None, {}
-        for _ in range(cfg["repeats"]):
-            # (interleaved: a machine shared with other work slows each alike)
-            dec_rates.append(_decode(path, fps))
-            rate, pos = _ours(path, fps)
-            our_rates.append(rate)
-            for engine in _OTHER_ENGINES:
-                rate, other_pos[engine] = _ours(path, fps, engine)
-                other_rates[engine].append(rate)
-        dec = statistics.median(dec_rates)
-        ours = statistics.median(our_rates)
+        # decoding and the engines in turn, round by round: a machine shared with other
+        # work slows each alike
+        runs = {"decode only": lambda: _decode(path, fps), "vidtrack": lambda: _ours(path, fps)}
+        runs.update({f"vidtrack ({e})": (lambda e=e: _ours(path, fps, e))
+                     for e in _OTHER_ENGINES})
+        times = timed_each(runs, repeats=repeats, warmup=warmup)
         start = _start_frame(per_frame, clean)
         length = float(per_frame.loc[start, "length_px"])
-        tp_rate, tp_pos, tp_ran, diameter = _trackpy(path, fps, per_frame, start,
-                                                     cfg["alt_frames"], length)
-        cv_name, cv_rate, cv_pos, cv_ran = _opencv(path, fps, per_frame, start,
-                                                   cfg["alt_frames"], length)
-    rows = [{"method": "decode only", "fps": dec, "rms_px": float("nan"),
+        frames = _frames(path, fps, start, cfg["alt_frames"], n)
+        diameter = _trackpy_diameter(length)
+        tp = timed(lambda: _trackpy(frames, per_frame, start, diameter),
+                   repeats=alt_repeats, warmup=warmup)
+        cv_name, factory = opencv_tracker()
+        box = _opencv_box(per_frame, start, length)
+        cv = timed(lambda: _opencv(frames, factory, n, start, box), repeats=alt_repeats,
+                   warmup=warmup)
+    dec = times["decode only"]
+    rows = [{"method": "decode only", **_speed(dec, dec.result), "rms_px": float("nan"),
              "max_px": float("nan"), "frames_scored": 0, "frames_clean": int(clean.sum()),
              "frames_run": n, "note": f"{cfg['size_px'][0]}x{cfg['size_px'][1]} MJPG, "
                                       f"{n} frames"}]
-    rms, mx, k, c = _score(pos, per_frame, clean, everything)
-    rows.append({"method": "vidtrack", "fps": ours, "rms_px": rms, "max_px": mx,
-                 "frames_scored": k, "frames_clean": c, "frames_run": n,
+    tr = times["vidtrack"].result
+    rms, mx, k, c = _score(_positions(tr), per_frame, clean, everything)
+    rows.append({"method": "vidtrack", **_speed(times["vidtrack"], len(tr.data)),
+                 "rms_px": rms, "max_px": mx, "frames_scored": k, "frames_clean": c,
+                 "frames_run": n,
                  "note": "unflagged frames; background included; finds the straw itself"})
     for engine in _OTHER_ENGINES:
-        rms, mx, k, c = _score(other_pos[engine], per_frame, clean, everything)
-        rows.append({"method": f"vidtrack ({engine})",
-                     "fps": statistics.median(other_rates[engine]), "rms_px": rms,
-                     "max_px": mx, "frames_scored": k, "frames_clean": c, "frames_run": n,
+        t = times[f"vidtrack ({engine})"]
+        rms, mx, k, c = _score(_positions(t.result), per_frame, clean, everything)
+        rows.append({"method": f"vidtrack ({engine})", **_speed(t, len(t.result.data)),
+                     "rms_px": rms, "max_px": mx, "frames_scored": k, "frames_clean": c,
+                     "frames_run": n,
                      "note": f"[track] engine = \"{engine}\"; unflagged frames"})
+    tp_pos, tp_ran = tp.result
     rms, mx, k, c = _score(tp_pos, per_frame, clean, tp_ran)
-    rows.append({"method": "trackpy.locate", "fps": tp_rate, "rms_px": rms, "max_px": mx,
-                 "frames_scored": k, "frames_clean": c, "frames_run": int(tp_ran.sum()),
+    rows.append({"method": "trackpy.locate", **_speed(tp, len(frames)), "rms_px": rms,
+                 "max_px": mx, "frames_scored": k, "frames_clean": c,
+                 "frames_run": int(tp_ran.sum()),
                  "note": f"diameter {diameter}, nearest feature; started at the truth"})
+    cv_pos, cv_ran = cv.result
     rms, mx, k, c = _score(cv_pos, per_frame, clean, cv_ran)
-    rows.append({"method": f"opencv {cv_name}", "fps": cv_rate, "rms_px": rms, "max_px": mx,
-                 "frames_scored": k, "frames_clean": c, "frames_run": int(cv_ran.sum()),
+    rows.append({"method": f"opencv {cv_name}", **_speed(cv, len(frames)), "rms_px": rms,
+                 "max_px": mx, "frames_scored": k, "frames_clean": c,
+                 "frames_run": int(cv_ran.sum()),
                  "note": "box centre; started from the true box"})
     table = pd.DataFrame(rows)
-    table.insert(2, "fps_vs_decode", table["fps"] / dec)
+    table["fps_vs_decode"] = table["fps"] / table["fps"].iloc[0]
+    table["cpu_vs_decode"] = table["fps_cpu"] / table["fps_cpu"].iloc[0]
+    table = table.reindex(columns=COLUMNS)
     with atomic_path(out_dir / "bench_track.csv") as tmp:
         table.to_csv(tmp, index=False)
     with atomic_path(out_dir / "bench_track.png") as tmp:
         plot_track_bench(table, tmp)
     return table
+
+
+#: Columns of ``bench_track.csv`` (the module notes say what each is).
+COLUMNS = ["method", "fps", "fps_vs_decode", "rms_px", "max_px", "frames_scored",
+           "frames_clean", "frames_run", "note", "fps_cpu", "cpu_vs_decode", "cpu_min_s",
+           "cpu_median_s", "wall_min_s", "wall_median_s", "calls"]
+
+
+def format_track_bench(table):
+    """The benchmark as text: what was timed, then one line per method."""
+    calls = table.set_index("method")["calls"]
+    head = [f"Tracking {int(table['frames_run'].iloc[0])} frames: speed against decoding "
+            f"them, measured in the same run (warm calls: {int(calls.iloc[0])} counted "
+            f"of decoding and vidtrack, {int(calls.iloc[-1])} of the alternatives);",
+            "fps_cpu and cpu_vs_decode by CPU time (min of the calls; threads and child "
+            "processes included), fps and fps_vs_decode by wall time (median);",
+            "centroid error against truth (px) on the clean frames scored", ""]
+    shown = table.drop(columns=["note", "calls"]).copy()
+    for col in ("fps", "fps_cpu"):
+        shown[col] = shown[col].map(lambda v: f"{v:.0f}" if v >= 100 else f"{v:.3g}")
+    for col in ("fps_vs_decode", "cpu_vs_decode"):
+        shown[col] = shown[col].map(lambda v: f"{v:.3g}x")
+    for col in ("rms_px", "max_px"):
+        shown[col] = shown[col].map(lambda v: "" if not np.isfinite(v) else f"{v:.3g}")
+    for col in ("cpu_min_s", "cpu_median_s", "wall_min_s", "wall_median_s"):
+        shown[col] = shown[col].map(lambda v: f"{v:.3g}")
+    shown = shown[["method", "fps_cpu", "cpu_vs_decode", "fps", "fps_vs_decode",
+                   "cpu_min_s", "cpu_median_s", "wall_min_s", "wall_median_s", "rms_px",
+                   "max_px", "frames_scored", "frames_clean", "frames_run"]]
+    notes = [f"  {m}: {note}" for m, note in zip(table["method"], table["note"])]
+    return "\n".join(head + [shown.to_string(index=False), ""] + notes)

@@ -28,11 +28,19 @@ pick, in one run on this machine, and write a table (TEXT, CSV) and a plot (PNG)
          cameras, and the square rig at 1.5 and 3 m read orthographically (without and
          with camera_distance_m) and as calibrated cameras, with the fit's run time
 
+Every time is measured on warm calls: one uncounted warm-up call (--warmup), then
+--repeats counted calls, interleaved round by round where methods are compared; the
+tables give the min and median of CPU time (the process's threads and its child
+processes) and of wall time, and ratios to decoding (model: to the closed form)
+measured in the same run.
+
 Examples:
   vidtrack bench model
   vidtrack bench model --out results/ --quick
   vidtrack bench perspective --seeds 3
   vidtrack bench track --real --quick
+  vidtrack bench track --quick --repeats 5
+  vidtrack bench track --real --repeats 1 --warmup 0
   vidtrack bench track --real --engine rules --clips balltoss,launcher,synth:shadow
 """
 
@@ -46,11 +54,18 @@ def add_arguments(parser):
                         help="folder for the CSV, PNG and text table "
                              "(default: ./vidtrack-bench)")
     parser.add_argument("--quick", action="store_true",
-                        help="fewer tolerances and repeats: a smoke run in seconds")
+                        help="smaller footage, fewer tolerances, seeds and clips: a smoke run")
     parser.add_argument("--seeds", type=int, default=None, metavar="N",
                         help="fit and perspective: number of seeded synthetic runs "
                              "(default 10 for fit, 3 for perspective; e.g. --seeds 40 for "
                              "the interval coverage)")
+    parser.add_argument("--repeats", type=int, default=3, metavar="N",
+                        help="counted calls of each timed method, after the warm-up "
+                             "(default 3; 1 allowed; track: trackpy and the OpenCV tracker "
+                             "make min(3, N); model: fast methods more, in a time budget)")
+    parser.add_argument("--warmup", type=int, default=1, metavar="N",
+                        help="uncounted calls of each timed method before the counted ones "
+                             "(default 1; 0: time cold calls)")
     real = parser.add_argument_group("the tracker scoreboard (vidtrack bench track --real)")
     real.add_argument("--real", action="store_true",
                       help="track: the scoreboard on real clips and synthetic distractor "
@@ -90,6 +105,8 @@ def run(args):
                                    or args.seeds < 1):
         raise VidtrackError("--seeds goes with 'vidtrack bench fit' or 'vidtrack bench "
                             "perspective' and must be >= 1")
+    if args.repeats < 1 or args.warmup < 0:
+        raise VidtrackError("--repeats must be >= 1 and --warmup >= 0")
     import importlib.util
 
     if args.which == "model" and importlib.util.find_spec("mpmath") is None:
@@ -106,11 +123,13 @@ def run(args):
         from vidtrack.bench.run import bench_track_real
 
         print(bench_track_real(args.out, quick=args.quick, progress=progress,
-                               engines=args.engine, clips=args.clips, shared=args.shared))
+                               engines=args.engine, clips=args.clips, shared=args.shared,
+                               repeats=args.repeats, warmup=args.warmup))
         print(f"\nwritten to {args.out}/")
         return 0
     extra = {"seeds": args.seeds} if args.which in ("fit", "perspective") else {}
-    text = RUNNERS[args.which](args.out, quick=args.quick, progress=progress, **extra)
+    text = RUNNERS[args.which](args.out, quick=args.quick, progress=progress,
+                               repeats=args.repeats, warmup=args.warmup, **extra)
     print(text)
     print(f"\nwritten to {args.out}/")
     return 0
