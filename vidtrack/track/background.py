@@ -36,17 +36,29 @@ Example
 ...     print(bg.noise_sigma, bg.threshold(k=5.0).mean())
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from vidtrack.errors import TrackError
 
 __all__ = ["Background", "estimate_background", "sample_background", "measure_noise",
-           "median_images", "sample_indices", "sample_spread", "gradient_max3", "MAD_TO_SIGMA"]
+           "median_images", "sample_indices", "sample_spread", "gradient_max3", "MAD_TO_SIGMA",
+           "without_object", "STOOD_SHARE", "MIN_LEFT"]
 
 #: Factor from a median absolute deviation to the standard deviation of a normal law.
 MAD_TO_SIGMA = 1.482602218505602
+
+
+#: A pixel the object covers in at least this share of the background's samples is
+#: taken again from the samples that show it without the object (:func:`without_object`):
+#: the median is the object's where it stood in half the samples or more, and leans
+#: towards it from about a quarter.
+STOOD_SHARE = 0.25
+
+#: The fewest samples without the object a pixel is taken again from; where fewer show
+#: it, no sample shows the background there (the pixel is ``held``).
+MIN_LEFT = 2
 
 
 @dataclass(frozen=True, eq=False)
@@ -477,3 +489,50 @@ def gather_samples(get, n_frames, *, samples=25, first=0):
     pairs = [(f, get(int(i) + 1 if i + 1 < n else int(i) - 1))
              for i, f in zip(idx[::2], frames[::2])]
     return idx, frames, pairs
+
+
+def without_object(background, samples, covered, *, stood_share=STOOD_SHARE,
+                   min_left=MIN_LEFT):
+    """The background taken again where the tracked object stood.
+
+    The median of the samples is the object's wherever it stood still in half of them
+    or more (a ball held before it is dropped, lying where it landed): there it hides
+    the object from the detection, and the object's leaving shows as a "ghost". Once
+    the object is known, each pixel it covers in at least ``stood_share`` of the samples
+    gets the median of the samples that show it without the object.
+
+    Parameters
+    ----------
+    background : Background
+    samples : sequence of numpy.ndarray
+        The frames the background's median was taken over, in its order.
+    covered : numpy.ndarray of bool
+        ``(len(samples), rows, cols)``: where the object lies in each sample.
+    stood_share : float, optional
+        :data:`STOOD_SHARE`.
+    min_left : int, optional
+        :data:`MIN_LEFT`.
+
+    Returns
+    -------
+    (Background, numpy.ndarray, numpy.ndarray)
+        The background (the same object where no pixel is taken again), the pixels
+        taken again and the pixels ``held``: covered in all but fewer than ``min_left``
+        samples, which no sample shows without the object (their value is kept).
+    """
+    covered = np.asarray(covered, bool)
+    k = covered.shape[0]
+    if k != len(samples):
+        raise ValueError(f"{k} masks for {len(samples)} samples")
+    count = covered.sum(axis=0)
+    stood = count >= max(stood_share * k, 1.0)
+    held = stood & (k - count < min_left)
+    redo = stood & ~held
+    if not redo.any():
+        return background, redo, held
+    ys, xs = np.nonzero(redo)
+    values = np.stack([np.asarray(f)[ys, xs] for f in samples]).astype(np.float32)
+    values[covered[:, ys, xs]] = np.nan
+    image = background.image.copy()
+    image[ys, xs] = np.nanmedian(values, axis=0)
+    return replace(background, image=image), redo, held

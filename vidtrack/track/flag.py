@@ -72,11 +72,34 @@ REASONS = {"lost": "no detection of the object in this frame (LOST)",
            "hidden": "part of the object hidden: its size or measured weight shrunk at a "
                      "stroke (APPEARANCE)",
            "shadow": "shadow-like in a chain that is not (APPEARANCE)",
+           "held": "over pixels where the object stood in nearly every frame the background "
+                   "was taken from, which none shows without it: measured against the "
+                   "object itself (APPEARANCE)",
            "off-path": "off the local path of its neighbours (OUTLIER)",
            "blade": "where the blade sweeps (BLADE)",
            "predicted": "no detection inside the object's chain (hidden, or too faint): "
                         "its position is the path's through the clean frames either side "
                         "(PREDICTED)"}
+
+
+def _at_rest(idx, uv, scatter, settings):
+    """How many frames at the start of a chain (positions ``idx``, points ``uv``) the
+    object lies still (``rest_frames``, ``rest_px``, ``rest_scatters``); 0 where it
+    does not."""
+    if idx.size <= settings.rest_frames:
+        return 0
+    tol = settings.rest_px
+    if np.isfinite(scatter):
+        tol = max(tol, settings.rest_scatters * scatter)
+    home = np.median(uv[:settings.rest_frames], axis=0)
+    far = np.flatnonzero(np.hypot(*(uv - home).T) > tol)
+    run = int(far[0]) if far.size else idx.size
+    if run < settings.rest_frames or run == idx.size:
+        return 0
+    t = idx[:run].astype(float)
+    slope = np.polyfit(t - t.mean(), uv[:run], 1)[0]
+    drift = float(np.hypot(*slope)) * (t[-1] - t[0])
+    return run if drift <= 0.5 * tol else 0
 
 
 #: A frame is tested against its neighbours' path only where its prediction's variance
@@ -202,7 +225,7 @@ def _appearance(size_measures, residual, weight, settings, frames=None):
 
 
 def judge(chain, detections, n, settings, *, find_release=True, residual=None,
-          weight=None, bar=None, joined=None):
+          weight=None, bar=None, joined=None, held=None):
     """Flags, reasons and the release of a chosen chain.
 
     Parameters
@@ -223,6 +246,9 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
         Frame positions where a rod was followed by its model into what it is joined to
         (:mod:`vidtrack.track.joined`): touched where their detection's size exceeds the
         flight's (``k_flag`` robust scatters of its log, at least ``size_floor``).
+    held : numpy.ndarray of int, optional
+        Frame positions where the object lies over pixels no background sample shows
+        without it (APPEARANCE, ``held``).
 
     Returns
     -------
@@ -281,6 +307,9 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     reasons["touched"][idx[touched]] = True
     reasons["hidden"][idx[hidden]] = True
     reasons["off-path"][idx[off]] = True
+    if held is not None and len(held):
+        flags[held] |= APPEARANCE
+        reasons["held"][held] = True
     if find_release:
         # (the knot is fitted to the frames on the path, those touched by something
         # included: the ride on a blade or in a hand is such a touch)
@@ -290,6 +319,11 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
             window=settings.release_window, significance=settings.release_significance,
             min_ratio=settings.release_ratio,
             pushed_cos=float(np.cos(np.radians(settings.release_push_deg))))
+        rest = _at_rest(idx, uv, scatter, settings)
+        if rest and (pos is None or pos < rest):
+            pos = rest
+            note = (f"the object lay still over the first {rest} frames of its chain, "
+                    f"before it moved (not in flight)")
         if pos is not None and pos > 0:
             release = int(idx[pos])
             flags[idx[idx < release]] |= PRE_RELEASE

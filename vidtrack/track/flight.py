@@ -28,7 +28,7 @@ import numpy as np
 
 from vidtrack.errors import TrackError
 from vidtrack.track._flags import BLADE, LOST
-from vidtrack.track.background import estimate_background, gather_samples
+from vidtrack.track.background import estimate_background, gather_samples, without_object
 from vidtrack.track.choose import choose
 from vidtrack.track.detect import Detector
 from vidtrack.track.flag import REASON_COLUMN, bridge_gaps, judge, reason_codes
@@ -48,6 +48,10 @@ _AHEAD = 8
 #: Footage that fits in this many bytes is decoded once, held, and its background taken
 #: from the frames held; longer footage has its background samples read first.
 HOLD_BYTES = 96 * 2 ** 20
+
+#: At most this many times the view is tracked again against a background taken without
+#: the object (the second places the object where it stood by the chain the first found).
+AGAIN_MAX = 2
 
 _TOP_NOTE = ("release: not looked for in the top view (it sees the rotor's plane edge-on); "
              "the front view's is carried over")
@@ -96,9 +100,9 @@ def _frames(source, cancel):
 
 
 def _background(source, held, settings):
-    """The background, and a :class:`~vidtrack.track.steady.Steadier` (None where the
-    camera is steady) with its note. ``held`` (footage held whole, or None) is moved
-    back in place where the camera shakes."""
+    """The background, a :class:`~vidtrack.track.steady.Steadier` (None where the
+    camera is steady) with its note, and the samples' indices and frames. ``held``
+    (footage held whole, or None) is moved back in place where the camera shakes."""
     n = len(held) if held is not None else len(source)
     if n < 3:
         raise TrackError(f"the background needs at least 3 frames, the footage has {n}")
@@ -109,14 +113,49 @@ def _background(source, held, settings):
     steady, note = Steadier.look(frames, idx, background.image,
                                  agree_share=settings.camera_agree_share)
     if steady is None:
-        return background, None, note
+        return background, None, note, (idx, frames)
     if held is not None:
         for i, frame in enumerate(held):
             held[i] = steady.warp(i, frame)
     else:
         get = lambda i: steady.warp(i, source[i])  # noqa: E731
     idx, frames, pairs = gather_samples(get, n, samples=samples)
-    return estimate_background(frames, pairs=pairs, frames=idx), steady, note
+    return (estimate_background(frames, pairs=pairs, frames=idx), steady, note,
+            (idx, frames))
+
+
+def _disc_reach(shape, settings):
+    """The radius (px) of the disc the object covers round its centre (``stood_reach``)."""
+    return settings.stood_reach * 2.0 * float(shape.major) + 1.0
+
+
+def _where_it_lies(chain, shape, at, frame_shape, settings):
+    """``(len(at), rows, cols)`` bool: the object's disc in frame positions ``at``, at
+    its chain's position there (interpolated between its frames). Before its chain's
+    first frame the object is taken to be where it was first seen, after the last where
+    it was last seen (held still before the throw, lying where it landed), in a disc
+    twice as wide: an object first seen as it leaves a place it stood on, joined to its
+    "ghost" there, is first seen a part of its size away from it."""
+    idx = chain.frames
+    u = np.interp(at, idx, chain.u[idx])
+    v = np.interp(at, idx, chain.v[idx])
+    outside = (np.asarray(at) < idx[0]) | (np.asarray(at) > idx[-1])
+    rows, cols = frame_shape
+    yy, xx = np.ogrid[0:rows, 0:cols]
+    reach = _disc_reach(shape, settings)
+    return np.stack([(xx - cu) ** 2 + (yy - cv) ** 2 <= (reach * (2.0 if out else 1.0)) ** 2
+                     for cu, cv, out in zip(u, v, outside)])
+
+
+def _over(chain, shape, mask, settings):
+    """Frame positions of the chain whose object's disc overlaps ``mask``."""
+    ys, xs = np.nonzero(mask)
+    if ys.size == 0:
+        return np.zeros(0, int)
+    idx = chain.frames
+    r = _disc_reach(shape, settings)
+    d2 = ((chain.u[idx, None] - xs[None, :]) ** 2 + (chain.v[idx, None] - ys[None, :]) ** 2)
+    return idx[(d2 <= r * r).any(axis=1)]
 
 
 def _steadied(frames, steady):
@@ -247,35 +286,67 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     """
     settings = settings or TrackerSettings()
     mask = blade_mask(blade_region, tuple(source.shape))
-    held = steady = None
+    held = steady = samples = None
     camera_note = None
     if background is None:
         frame_bytes = int(np.prod(source.shape)) * np.dtype(source.dtype).itemsize
         if len(source) * frame_bytes <= HOLD_BYTES:
             held = list(_frames(source, cancel))
-        background, steady, camera_note = _background(source, held, settings)
+        background, steady, camera_note, samples = _background(source, held, settings)
     name = f"view {view}" if view else "the view"
     if tuple(background.shape) != tuple(source.shape):
         raise TrackError(f"{name}: the background is {background.shape[1]}x"
                          f"{background.shape[0]} px, the footage {source.shape[1]}x"
                          f"{source.shape[0]}")
-    detector = Detector(background, settings)
-    frames = held if held is not None else _steadied(_frames(source, cancel), steady)
-    detections = [detector(frame) for frame in frames]
-    del frames
+    fnums = np.asarray(source.frame_numbers)
+
+    def run(background):
+        detector = Detector(background, settings)
+        frames = held if held is not None else _steadied(_frames(source, cancel), steady)
+        detections = [detector(frame) for frame in frames]
+        del frames
+        n = len(detections)
+        if n == 0 or not any(len(d) for d in detections):
+            raise TrackError(f"{name}: nothing moves in frames {fnums[0]}..{fnums[n - 1]}: no "
+                             f"pixel differs from the background by more than "
+                             f"{settings.k_sigma:g} x its noise "
+                             f"({background.noise_sigma:.2g} grey levels)")
+        tracklets = link(detections, settings, frame_shape=source.shape)
+        try:
+            chain, others = choose(detections, tracklets, settings, target=target,
+                                   frame_numbers=fnums[:n], what=what)
+        except TrackError as err:
+            raise TrackError(f"{name}: {err}") from None
+        shape = chain_shape(chain)
+        return detector, detections, tracklets, chain, others, shape
+
+    detector, detections, tracklets, chain, others, shape = run(background)
+    over_held = np.zeros(0, int)
+    again_note = None
+    if samples is not None:
+        # (the object stood still in many of the background's samples: the median is
+        # the object's there; taken again from the samples that show the wall, and the
+        # view tracked again where that moves enough of the object's area; the chain
+        # then holds the object where it stood, which places it better the next time)
+        idx, frames = samples
+        first = background
+        for again in range(1, AGAIN_MAX + 1):
+            redone, taken, no_wall = without_object(
+                first, frames, _where_it_lies(chain, shape, idx, first.shape, settings),
+                stood_share=settings.stood_share)
+            moved = taken & (np.abs(redone.image - background.image) > detector.grow_level)
+            area = np.pi * 4.0 * float(shape.major) * max(float(shape.minor), 0.5)
+            if moved.sum() < settings.stood_moved_share * area:
+                break
+            again_note = (f"background: taken again without the object where it stood "
+                          f"({int(taken.sum())} px); the view tracked again "
+                          f"({again} time{'s' if again > 1 else ''})")
+            background = redone
+            detector, detections, tracklets, chain, others, shape = run(background)
+        over_held = _over(chain, shape, no_wall, settings)
+    del samples
     n = len(detections)
-    fnums = np.asarray(source.frame_numbers)[:n]
-    if n == 0 or not any(len(d) for d in detections):
-        raise TrackError(f"{name}: nothing moves in frames {fnums[0]}..{fnums[-1]}: no pixel "
-                         f"differs from the background by more than {settings.k_sigma:g} x "
-                         f"its noise ({background.noise_sigma:.2g} grey levels)")
-    tracklets = link(detections, settings, frame_shape=source.shape)
-    try:
-        chain, others = choose(detections, tracklets, settings, target=target,
-                               frame_numbers=fnums, what=what)
-    except TrackError as err:
-        raise TrackError(f"{name}: {err}") from None
-    shape = chain_shape(chain)
+    fnums = fnums[:n]
     rod = is_rod(shape)     # (before the measurement refines the shape's profile)
     # (a rod is followed back into what it rides where its release is looked for)
     follow = rod and view != "top"
@@ -291,7 +362,9 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     flags, release, scatter, notes, reasons = judge(chain, detections, n, settings,
                                            find_release=view != "top", residual=residual,
                                            weight=moments[:, 0], bar=bars[:, :4],
-                                           joined=followed)
+                                           joined=followed, held=over_held)
+    if again_note:
+        notes.insert(0, again_note)
     u, v = chain.u.copy(), chain.v.copy()
     u[flags == LOST] = np.nan
     v[flags == LOST] = np.nan

@@ -173,6 +173,30 @@ class TrackerSettings:
         straw riding a blade, :mod:`vidtrack.track.joined`) is seen in a frame only where
         the bar fitted there covers at least this share of the flight's coverage
         (a share): less, it is hidden behind what it rides, or gone.
+    stood_share : float
+        The background without the object (:func:`vidtrack.track.background.without_object`):
+        a pixel the chosen object covers in at least this share of the background's
+        samples (a ball held still, lying where it landed; the median is the object's
+        where it stood in half of them) gets the median of the samples that show it
+        without the object (a share).
+    stood_reach : float
+        Where the object lies in a sample: a disc round its chain's position of this many
+        times its half extent (twice its spread along its major axis), plus a pixel;
+        twice as wide before its chain's first frame and after its last (dimensionless).
+    stood_moved_share : float
+        The view is tracked again against that background where the pixels it changes by
+        more than ``k_grow`` noises make up at least this share of the object's area (a
+        share).
+    rest_frames : int
+        The object at rest before it moves (held, lying on a blade) is not in flight:
+        at least this many frames at the start of its chain within ``rest_px`` (or
+        ``rest_scatters`` scatters) of where they start, with no drift across them, are
+        PRE_RELEASE (frames).
+    rest_px : float
+        ... their smallest tolerance (px).
+    rest_scatters : float
+        ... and their tolerance in the chain's robust scatters about its path (noise
+        units); their straight line in time must move less than half the tolerance.
     """
 
     k_sigma: float = 5.0
@@ -212,6 +236,12 @@ class TrackerSettings:
     bar_cap_px: float = 2.0
     camera_agree_share: float = 1.0 / 3.0
     joined_cover: float = 0.5
+    stood_share: float = 0.25
+    stood_reach: float = 1.5
+    stood_moved_share: float = 0.25
+    rest_frames: int = 5
+    rest_px: float = 0.25
+    rest_scatters: float = 4.0
 
     def __post_init__(self):
         for f in fields(self):
@@ -230,7 +260,7 @@ class TrackerSettings:
             raise VidtrackError(f"track.release_push_deg must be at most 180 (degrees), got "
                                 f"{self.release_push_deg:g}")
         for name in ("highlight_one_side", "highlight_frames", "highlight_core",
-                     "camera_agree_share", "joined_cover"):
+                     "camera_agree_share", "joined_cover", "stood_share"):
             if getattr(self, name) > 1.0:
                 raise VidtrackError(f"track.{name} must be at most 1 (a share), got "
                                     f"{getattr(self, name):g}")
