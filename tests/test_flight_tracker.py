@@ -747,7 +747,7 @@ def test_a_ball_held_still_over_most_of_the_footage_then_dropped(tmp_path, level
     ok = tr.usable
     print(f"\nheld {level:g}: {ok.sum()} unflagged ({ok[rest:].sum()} of the {n - rest} "
           f"falling frames), largest {err[ok].max():.3f} px; {tr.notes[:3]}")
-    assert any("taken again without the object" in note for note in tr.notes)
+    assert any("taken again without it" in note for note in tr.notes)
     assert not ok[:rest - 1].any()
     assert np.all(d["flags"].to_numpy()[:rest - 1] & PRE_RELEASE)
     assert ok[rest:].sum() >= 0.9 * (n - rest)

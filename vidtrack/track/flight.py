@@ -338,8 +338,9 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
             area = np.pi * 4.0 * float(shape.major) * max(float(shape.minor), 0.5)
             if moved.sum() < settings.stood_moved_share * area:
                 break
-            again_note = (f"background: taken again without the object where it stood "
-                          f"({int(taken.sum())} px); the view tracked again "
+            again_note = (f"background: the median held the object where it stood still "
+                          f"(its ghost once it left); taken again without it there "
+                          f"({int(taken.sum())} px) and the view tracked again "
                           f"({again} time{'s' if again > 1 else ''})")
             background = redone
             detector, detections, tracklets, chain, others, shape = run(background)
