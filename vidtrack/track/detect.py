@@ -45,7 +45,7 @@ the image is kept, so memory does not grow with the footage's length.
 import cv2
 import numpy as np
 
-__all__ = ["Detector", "DETECTION_DTYPE", "MAX_DETECTIONS", "pixel_weights"]
+__all__ = ["Detector", "DETECTION_DTYPE", "MAX_DETECTIONS", "pixel_weights", "nonzero_2d"]
 
 #: At most this many detections are kept per frame: the most significant (by their
 #: signal-to-noise ratio; a small object of strong contrast before a crowd whose
@@ -127,16 +127,62 @@ class ShadowTest:
             beside its shadow are read against the background as the shadow dims it.
             None where no pixel is a shadow's.
         """
-        sl = np.s_[:, :] if window is None else np.s_[window[0]:window[1], window[2]:window[3]]
-        textured = self.textured[sl]
-        cand = candidates & textured
+        if window is None:
+            return self._whole(f, candidates, regions)
+        sl = np.s_[window[0]:window[1], window[2]:window[3]]
+        cand = candidates & self.textured[sl]
         if not cand.any():
             return cand, None
         b = self.bg[sl]
-        if window is None:
-            mean_b, var_b = self.mean_b, self.var_b
-        else:
-            mean_b, var_b = _box_stats(b)
+        mean_b, var_b = _box_stats(b)
+        shade, own = self._shade(f, b, mean_b, var_b, cand, regions)
+        if not shade.any():
+            return shade, None
+        return shade, _light(shade, own)
+
+    def _whole(self, f, candidates, regions):
+        """:meth:`__call__` over the whole frame, worked out only round the candidates.
+
+        A frame holds a few dozen candidates (textured, darker than the background),
+        so the box means are taken over their bounding box grown by the box's half
+        side, and the light over the shadow's bounding box grown by the box's side: a
+        box mean at a pixel reads only the pixels within that half side, so inside
+        those crops it is the whole frame's (OpenCV's running box sums are in double
+        precision, exact for these values: the same bits), and where the crop meets
+        the frame's edge it reflects the frame's edge alike. Beyond the crops no pixel
+        is a shadow's and the light is 1, as over the whole frame.
+        """
+        cand = candidates & self.textured
+        ys, xs = nonzero_2d(cand)
+        if ys.size == 0:
+            return cand, None
+        rows, cols = cand.shape
+        half = SHADOW_WINDOW_PX // 2
+        # (an opening also reads within the box's half side: 3 x 3, twice)
+        sl = _grown_box(ys, xs, half, rows, cols)
+        shade_c, _ = self._shade(f[sl], self.bg[sl], self.mean_b[sl], self.var_b[sl],
+                                 cand[sl], regions)
+        shade = np.zeros_like(cand)
+        shade[sl] = shade_c
+        ys, xs = nonzero_2d(shade_c)
+        if ys.size == 0:
+            return shade, None
+        ys += sl[0].start
+        xs += sl[1].start
+        # (the light reads the shadow's pixels within the box's half side of each
+        # pixel: at most 2 half sides from the shadow's; reflected at the crop's inner
+        # edge, a pixel there reads no shadow's pixel, as over the whole frame)
+        sl2 = _grown_box(ys, xs, 2 * half, rows, cols)
+        b2 = self.bg[sl2]
+        own = f[sl2] / np.maximum(b2, 1.0)
+        light = np.ones_like(f)
+        light[sl2] = _light(shade[sl2], own)
+        return shade, light
+
+    def _shade(self, f, b, mean_b, var_b, cand, regions):
+        """The shadow's pixels among ``cand`` (textured candidates) over arrays of one
+        shape (the frame's, or a crop's: ``mean_b``, ``var_b`` the background's box
+        statistics there), and each pixel's own dimming ``f / b``."""
         box = (SHADOW_WINDOW_PX, SHADOW_WINDOW_PX)
         mean_f = cv2.boxFilter(f, -1, box)
         cov = cv2.boxFilter(f * b, -1, box) - mean_f * mean_b
@@ -150,14 +196,36 @@ class ShadowTest:
         if regions and shade.any():
             shade = cv2.morphologyEx(shade.astype(np.uint8), cv2.MORPH_OPEN,
                                      np.ones((3, 3), np.uint8)).astype(bool)
-        if not shade.any():
-            return shade, None
-        dim = np.where(shade, own, 0.0).astype(np.float32)
-        count = cv2.boxFilter(shade.astype(np.float32), -1, box, normalize=False)
-        near = count > 0
-        light = np.ones_like(f)
-        light[near] = cv2.boxFilter(dim, -1, box, normalize=False)[near] / count[near]
-        return shade, light
+        return shade, own
+
+
+def nonzero_2d(mask):
+    """``np.nonzero`` of a 2-D boolean ``mask`` (rows, columns; in the same order), by
+    its flat indices: several times faster than ``np.nonzero`` of a 2-D array (numpy
+    2.x), which the tracker calls a few times each frame."""
+    idx = np.flatnonzero(mask)
+    ys = idx // mask.shape[1]
+    return ys, idx - ys * mask.shape[1]
+
+
+def _grown_box(ys, xs, margin, rows, cols):
+    """The slices of the bounding box of pixels ``(ys, xs)`` grown by ``margin`` px each
+    way, within a frame of ``rows`` x ``cols``."""
+    return (slice(max(int(ys.min()) - margin, 0), min(int(ys.max()) + margin + 1, rows)),
+            slice(max(int(xs.min()) - margin, 0), min(int(xs.max()) + margin + 1, cols)))
+
+
+def _light(shade, own):
+    """The factor by which a shadow dims the background round each pixel: the mean
+    ``own`` (frame / background) of the ``shade`` pixels in the square round it, 1
+    where there are none."""
+    box = (SHADOW_WINDOW_PX, SHADOW_WINDOW_PX)
+    dim = np.where(shade, own, 0.0).astype(np.float32)
+    count = cv2.boxFilter(shade.astype(np.float32), -1, box, normalize=False)
+    near = count > 0
+    light = np.ones_like(own)
+    light[near] = cv2.boxFilter(dim, -1, box, normalize=False)[near] / count[near]
+    return light
 
 
 def _box_stats(img):
@@ -264,7 +332,7 @@ class Detector:
         if n <= 1:
             return np.zeros(0, DETECTION_DTYPE)
         seed = cv2.compare(absd, self.seed_level, cv2.CMP_GT)
-        ys, xs = np.nonzero(seed)
+        ys, xs = nonzero_2d(seed != 0)
         seeded = np.zeros(n, bool)
         seeded[lab[ys, xs]] = True
         seeded[0] = False
@@ -280,7 +348,7 @@ class Detector:
         remap[keep] = np.arange(1, keep.size + 1, dtype=np.float32)
         own = remap[lab]
         grown = cv2.dilate(own, _KERNEL3)
-        ys, xs = np.nonzero(grown)
+        ys, xs = nonzero_2d(grown != 0)
         li = grown[ys, xs].astype(np.int64) - 1
         m = keep.size
         d = diff[ys, xs].astype(np.float64)
