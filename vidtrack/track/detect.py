@@ -127,8 +127,11 @@ class ShadowTest:
             beside its shadow are read against the background as the shadow dims it.
             None where no pixel is a shadow's.
         """
+        rows, cols = self.bg.shape
+        if window is None and not regions and min(rows, cols) >= SHADOW_WINDOW_PX:
+            return self._sparse(f, candidates)
         if window is None:
-            return self._whole(f, candidates, regions)
+            window = (0, rows, 0, cols)
         sl = np.s_[window[0]:window[1], window[2]:window[3]]
         cand = candidates & self.textured[sl]
         if not cand.any():
@@ -140,43 +143,65 @@ class ShadowTest:
             return shade, None
         return shade, _light(shade, own)
 
-    def _whole(self, f, candidates, regions):
-        """:meth:`__call__` over the whole frame, worked out only round the candidates.
+    def _sparse(self, f, candidates):
+        """:meth:`__call__` over the whole frame, worked out at the candidates only.
 
-        A frame holds a few dozen candidates (textured, darker than the background),
-        so the box means are taken over their bounding box grown by the box's half
-        side, and the light over the shadow's bounding box grown by the box's side: a
-        box mean at a pixel reads only the pixels within that half side, so inside
-        those crops it is the whole frame's (OpenCV's running box sums are in double
-        precision, exact for these values: the same bits), and where the crop meets
-        the frame's edge it reflects the frame's edge alike. Beyond the crops no pixel
-        is a shadow's and the light is 1, as over the whole frame.
+        A frame holds a few dozen candidates (textured, darker than the background) and
+        fewer shadow pixels: the box means are taken at the candidates, and the light
+        at the pixels within the box's half side of a shadow's (it is 1 elsewhere),
+        each from the square round the pixel (:func:`_box_at`: the values the box
+        filter over the whole frame gives there, bit for bit). Many candidates (a
+        frame darkened all over) are tested over the whole frame.
         """
+        rows, cols = cand_shape = candidates.shape
+        area = SHADOW_WINDOW_PX * SHADOW_WINDOW_PX
         cand = candidates & self.textured
         ys, xs = nonzero_2d(cand)
         if ys.size == 0:
             return cand, None
-        rows, cols = cand.shape
-        half = SHADOW_WINDOW_PX // 2
-        # (an opening also reads within the box's half side: 3 x 3, twice)
-        sl = _grown_box(ys, xs, half, rows, cols)
-        shade_c, _ = self._shade(f[sl], self.bg[sl], self.mean_b[sl], self.var_b[sl],
-                                 cand[sl], regions)
-        shade = np.zeros_like(cand)
-        shade[sl] = shade_c
-        ys, xs = nonzero_2d(shade_c)
-        if ys.size == 0:
+        if ys.size * area > cand.size:
+            return self(f, candidates, window=(0, rows, 0, cols))
+        sq = _squares(ys, xs, rows, cols)
+        fs = f[sq]
+        bs = self.bg[sq]
+        k = ys.size
+        sums = _box_at(np.concatenate([fs, fs * bs, fs * fs]))
+        mean_f, mean_fb, mean_ff = sums[:k], sums[k:2 * k], sums[2 * k:]
+        mean_b, var_b = self.mean_b[ys, xs], self.var_b[ys, xs]
+        cov = mean_fb - mean_f * mean_b
+        var_f = np.maximum(mean_ff - mean_f * mean_f, 0.0)
+        ratio = mean_f / np.maximum(mean_b, 1.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r = cov / np.sqrt(var_f * var_b)
+        own = f[ys, xs] / np.maximum(self.bg[ys, xs], 1.0)
+        hit = ((ratio >= self.ratio_min) & (ratio < 1.0) & (r >= self.texture_min)
+               & (own >= self.ratio_min))
+        shade = np.zeros(cand_shape, bool)
+        if not hit.any():
             return shade, None
-        ys += sl[0].start
-        xs += sl[1].start
-        # (the light reads the shadow's pixels within the box's half side of each
-        # pixel: at most 2 half sides from the shadow's; reflected at the crop's inner
-        # edge, a pixel there reads no shadow's pixel, as over the whole frame)
-        sl2 = _grown_box(ys, xs, 2 * half, rows, cols)
-        b2 = self.bg[sl2]
-        own = f[sl2] / np.maximum(b2, 1.0)
+        ys, xs = ys[hit], xs[hit]
+        shade[ys, xs] = True
+        # the light: at the pixels within the box's half side of a shadow's pixel
+        half = SHADOW_WINDOW_PX // 2
+        near = np.arange(-half, half + 1)
+        ny = (ys[:, None, None] + near[None, :, None]).clip(0, rows - 1)
+        nx = (xs[:, None, None] + near[None, None, :]).clip(0, cols - 1)
+        mark = np.zeros(cand.size, bool)
+        mark[(ny * cols + nx).ravel()] = True
+        flat = np.flatnonzero(mark)
+        if flat.size * area > cand.size:
+            return shade, _light(shade, f / np.maximum(self.bg, 1.0))
+        ty = flat // cols
+        tx = flat - ty * cols
+        # (what _light box-filters: the shadow's pixels, and their own dimming there)
+        count = np.zeros(cand_shape, np.float32)
+        count[ys, xs] = 1.0
+        dim = np.zeros(cand_shape, np.float32)
+        dim[ys, xs] = own[hit]
+        sq = _squares(ty, tx, rows, cols)
+        sums = _box_at(np.concatenate([dim[sq], count[sq]]), normalize=False)
         light = np.ones_like(f)
-        light[sl2] = _light(shade[sl2], own)
+        light[ty, tx] = sums[:flat.size] / sums[flat.size:]
         return shade, light
 
     def _shade(self, f, b, mean_b, var_b, cand, regions):
@@ -208,11 +233,38 @@ def nonzero_2d(mask):
     return ys, idx - ys * mask.shape[1]
 
 
-def _grown_box(ys, xs, margin, rows, cols):
-    """The slices of the bounding box of pixels ``(ys, xs)`` grown by ``margin`` px each
-    way, within a frame of ``rows`` x ``cols``."""
-    return (slice(max(int(ys.min()) - margin, 0), min(int(ys.max()) + margin + 1, rows)),
-            slice(max(int(xs.min()) - margin, 0), min(int(xs.max()) + margin + 1, cols)))
+def _squares(ys, xs, rows, cols):
+    """Index arrays (broadcasting to ``(k, side, side)``) of the ``SHADOW_WINDOW_PX``
+    square round each pixel ``(ys, xs)`` of a frame of ``rows`` x ``cols``, reflected at
+    the frame's edge as OpenCV's box filter reflects it (``BORDER_REFLECT_101``: row -1
+    is row 1, row ``rows`` is row ``rows - 2``)."""
+    half = SHADOW_WINDOW_PX // 2
+    off = np.arange(-half, half + 1)
+
+    def reflect(i, n):
+        i = np.abs(i)
+        return np.where(i >= n, 2 * (n - 1) - i, i)
+
+    return (reflect(ys[:, None] + off, rows)[:, :, None],
+            reflect(xs[:, None] + off, cols)[:, None, :])
+
+
+def _box_at(squares, normalize=True):
+    """``cv2.boxFilter`` (float32, ``SHADOW_WINDOW_PX`` square) at the centres of
+    ``squares`` (``(k, side, side)``, each the square round a pixel of the frame), as
+    over the whole frame.
+
+    The squares are laid side by side in a strip one square high and box-filtered: the
+    box round each square's centre is that square, whole, and OpenCV sums a box in
+    double precision (exactly, for a frame's values: grey levels, their products with
+    the background), so the centre's value is the whole frame's there bit for bit.
+    """
+    side = SHADOW_WINDOW_PX
+    k = squares.shape[0]
+    strip = np.ascontiguousarray(squares.transpose(1, 0, 2).reshape(side, side * k),
+                                 dtype=np.float32)
+    out = cv2.boxFilter(strip, -1, (side, side), normalize=normalize)
+    return out[side // 2, side // 2::side]
 
 
 def _light(shade, own):
