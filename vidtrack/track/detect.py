@@ -396,12 +396,24 @@ class Detector:
             keep = keep[np.argsort(stats[keep, cv2.CC_STAT_AREA])[::-1][:4 * MAX_DETECTIONS]]
         # the kept components, relabelled 1..m, grown by a pixel (a pixel between two
         # takes the larger label: rare, and only at their edges)
+        # (over the kept components' bounding box grown by the pixel: nothing is kept
+        # beyond it, and the dilation ignores the crop's edge as it does the frame's)
+        r0 = max(int(stats[keep, cv2.CC_STAT_TOP].min()) - 1, 0)
+        c0 = max(int(stats[keep, cv2.CC_STAT_LEFT].min()) - 1, 0)
+        r1 = min(int((stats[keep, cv2.CC_STAT_TOP] + stats[keep, cv2.CC_STAT_HEIGHT]).max())
+                 + 1, self.rows)
+        c1 = min(int((stats[keep, cv2.CC_STAT_LEFT] + stats[keep, cv2.CC_STAT_WIDTH]).max())
+                 + 1, self.cols)
         remap = np.zeros(n, np.float32)
         remap[keep] = np.arange(1, keep.size + 1, dtype=np.float32)
-        own = remap[lab]
+        own = remap[lab[r0:r1, c0:c1]]
         grown = cv2.dilate(own, _KERNEL3)
         ys, xs = nonzero_2d(grown != 0)
         li = grown[ys, xs].astype(np.int64) - 1
+        # (the component's own pixels, not the grown ring: the photometric test's)
+        core = own[ys, xs] > 0
+        ys += r0
+        xs += c0
         m = keep.size
         d = diff[ys, xs].astype(np.float64)
         bgv = self.bg[ys, xs].astype(np.float64)
@@ -458,8 +470,7 @@ class Detector:
         # (a mixed object's contrast is its body's)
         wb = np.where(body[li] * d >= 0, w, 0.0)
         contrast = np.bincount(li, wb * d, m) / np.maximum(np.bincount(li, wb, m), 1e-12)
-        # the photometric test, over the component's own pixels (not the grown ring)
-        core = own[ys, xs] > 0
+        # the photometric test, over the component's own pixels (core)
         ratio = fv / np.maximum(bgv, 1.0)
         ratio_p10 = _percentile_by_label(ratio[core], li[core], m, 0.1)
         dark_all = np.bincount(li, core & (d >= 0), m) == 0

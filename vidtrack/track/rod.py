@@ -143,7 +143,8 @@ class _Cached:
         self.parts = None
 
     def _at(self, p):
-        if self.p is None or not np.array_equal(p, self.p):
+        # (an element-wise test: np.array_equal's checks cost more than it, each call)
+        if self.p is None or not (p == self.p).all():
             self.p = np.array(p, copy=True)
             self.parts = _parts(p, self.x, self.y)
         return self.parts
