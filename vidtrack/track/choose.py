@@ -116,7 +116,7 @@ def _step(chain_f, chain_u, chain_v, chain_s, fi, settings, dets, chain_l=None):
         return -1, None
     k = settings.predict_frames
     pu, pv = extrapolate(chain_f[-k:], chain_u[-k:], chain_v[-k:], fi)
-    size = float(np.median(chain_s[-k:]))
+    size = _median(chain_s[-k:])
     gap = fi - chain_f[-1]
     gate = max(settings.gate_px, settings.gate_sizes * size) * (1.0 + 0.5 * (gap - 1))
     dist = np.hypot(dets["u"] - pu, dets["v"] - pv)
@@ -124,13 +124,25 @@ def _step(chain_f, chain_u, chain_v, chain_s, fi, settings, dets, chain_l=None):
     cost = dist * (1.0 + np.abs(np.log(ds / size)))
     if chain_l is not None:
         # (and by how much its contrast differs: a dimmer rod crossing the object)
-        lev = float(np.median(chain_l[-k:]))
+        lev = _median(chain_l[-k:])
         cost = cost * (1.0 + np.abs(np.log(np.maximum(dets["level"], 1e-3) / max(lev, 1e-3))))
     cost = np.where(dist <= gate, cost, np.inf)
     j = int(np.argmin(cost))
     if not np.isfinite(cost[j]):
         return -1, None
     return j, float(dist[j])
+
+
+def _median(values):
+    """``float(np.median(values))`` of a short list of floats, without numpy's overhead
+    per call (this runs for every frame a chain is grown by): the middle value, or the
+    mean of the middle two, ``(a + b) / 2``, as numpy takes it."""
+    s = sorted(values)
+    n = len(s)
+    if n == 0 or any(x != x for x in s):
+        return float(np.median(values))     # (empty, or a NaN: numpy's answer)
+    m = n // 2
+    return float(s[m]) if n % 2 else float((s[m - 1] + s[m]) / 2.0)
 
 
 def grow(detections, seed, settings):
@@ -156,7 +168,8 @@ def grow(detections, seed, settings):
         cl = [float(x["level"]) for x in d]
         fi = f[-1] + direction
         while 0 <= fi < n and abs(fi - f[-1]) <= settings.max_gap + 1:
-            ff = f if direction == 1 else [-x for x in f]
+            # (backwards, time runs the other way: the last few frames, negated)
+            ff = f if direction == 1 else [-x for x in f[-settings.predict_frames:]]
             j, _err = _step(ff, cu, cv, cs, fi * direction, settings, detections[fi],
                             chain_l=cl)
             if j >= 0:

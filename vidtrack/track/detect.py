@@ -45,7 +45,7 @@ the image is kept, so memory does not grow with the footage's length.
 import cv2
 import numpy as np
 
-__all__ = ["Detector", "DETECTION_DTYPE", "MAX_DETECTIONS", "pixel_weights"]
+__all__ = ["Detector", "DETECTION_DTYPE", "MAX_DETECTIONS", "pixel_weights", "nonzero_2d"]
 
 #: At most this many detections are kept per frame: the most significant (by their
 #: signal-to-noise ratio; a small object of strong contrast before a crowd whose
@@ -127,16 +127,87 @@ class ShadowTest:
             beside its shadow are read against the background as the shadow dims it.
             None where no pixel is a shadow's.
         """
-        sl = np.s_[:, :] if window is None else np.s_[window[0]:window[1], window[2]:window[3]]
-        textured = self.textured[sl]
-        cand = candidates & textured
+        rows, cols = self.bg.shape
+        if window is None and not regions and min(rows, cols) >= SHADOW_WINDOW_PX:
+            return self._sparse(f, candidates)
+        if window is None:
+            window = (0, rows, 0, cols)
+        sl = np.s_[window[0]:window[1], window[2]:window[3]]
+        cand = candidates & self.textured[sl]
         if not cand.any():
             return cand, None
         b = self.bg[sl]
-        if window is None:
-            mean_b, var_b = self.mean_b, self.var_b
-        else:
-            mean_b, var_b = _box_stats(b)
+        mean_b, var_b = _box_stats(b)
+        shade, own = self._shade(f, b, mean_b, var_b, cand, regions)
+        if not shade.any():
+            return shade, None
+        return shade, _light(shade, own)
+
+    def _sparse(self, f, candidates):
+        """:meth:`__call__` over the whole frame, worked out at the candidates only.
+
+        A frame holds a few dozen candidates (textured, darker than the background) and
+        fewer shadow pixels: the box means are taken at the candidates, and the light
+        at the pixels within the box's half side of a shadow's (it is 1 elsewhere),
+        each from the square round the pixel (:func:`_box_at`: the values the box
+        filter over the whole frame gives there, bit for bit). Many candidates (a
+        frame darkened all over) are tested over the whole frame.
+        """
+        rows, cols = cand_shape = candidates.shape
+        area = SHADOW_WINDOW_PX * SHADOW_WINDOW_PX
+        cand = candidates & self.textured
+        ys, xs = nonzero_2d(cand)
+        if ys.size == 0:
+            return cand, None
+        if ys.size * area > cand.size:
+            return self(f, candidates, window=(0, rows, 0, cols))
+        sq = _squares(ys, xs, rows, cols)
+        fs = f[sq]
+        bs = self.bg[sq]
+        k = ys.size
+        sums = _box_at(np.concatenate([fs, fs * bs, fs * fs]))
+        mean_f, mean_fb, mean_ff = sums[:k], sums[k:2 * k], sums[2 * k:]
+        mean_b, var_b = self.mean_b[ys, xs], self.var_b[ys, xs]
+        cov = mean_fb - mean_f * mean_b
+        var_f = np.maximum(mean_ff - mean_f * mean_f, 0.0)
+        ratio = mean_f / np.maximum(mean_b, 1.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r = cov / np.sqrt(var_f * var_b)
+        own = f[ys, xs] / np.maximum(self.bg[ys, xs], 1.0)
+        hit = ((ratio >= self.ratio_min) & (ratio < 1.0) & (r >= self.texture_min)
+               & (own >= self.ratio_min))
+        shade = np.zeros(cand_shape, bool)
+        if not hit.any():
+            return shade, None
+        ys, xs = ys[hit], xs[hit]
+        shade[ys, xs] = True
+        # the light: at the pixels within the box's half side of a shadow's pixel
+        half = SHADOW_WINDOW_PX // 2
+        near = np.arange(-half, half + 1)
+        ny = (ys[:, None, None] + near[None, :, None]).clip(0, rows - 1)
+        nx = (xs[:, None, None] + near[None, None, :]).clip(0, cols - 1)
+        mark = np.zeros(cand.size, bool)
+        mark[(ny * cols + nx).ravel()] = True
+        flat = np.flatnonzero(mark)
+        if flat.size * area > cand.size:
+            return shade, _light(shade, f / np.maximum(self.bg, 1.0))
+        ty = flat // cols
+        tx = flat - ty * cols
+        # (what _light box-filters: the shadow's pixels, and their own dimming there)
+        count = np.zeros(cand_shape, np.float32)
+        count[ys, xs] = 1.0
+        dim = np.zeros(cand_shape, np.float32)
+        dim[ys, xs] = own[hit]
+        sq = _squares(ty, tx, rows, cols)
+        sums = _box_at(np.concatenate([dim[sq], count[sq]]), normalize=False)
+        light = np.ones_like(f)
+        light[ty, tx] = sums[:flat.size] / sums[flat.size:]
+        return shade, light
+
+    def _shade(self, f, b, mean_b, var_b, cand, regions):
+        """The shadow's pixels among ``cand`` (textured candidates) over arrays of one
+        shape (the frame's, or a crop's: ``mean_b``, ``var_b`` the background's box
+        statistics there), and each pixel's own dimming ``f / b``."""
         box = (SHADOW_WINDOW_PX, SHADOW_WINDOW_PX)
         mean_f = cv2.boxFilter(f, -1, box)
         cov = cv2.boxFilter(f * b, -1, box) - mean_f * mean_b
@@ -150,14 +221,63 @@ class ShadowTest:
         if regions and shade.any():
             shade = cv2.morphologyEx(shade.astype(np.uint8), cv2.MORPH_OPEN,
                                      np.ones((3, 3), np.uint8)).astype(bool)
-        if not shade.any():
-            return shade, None
-        dim = np.where(shade, own, 0.0).astype(np.float32)
-        count = cv2.boxFilter(shade.astype(np.float32), -1, box, normalize=False)
-        near = count > 0
-        light = np.ones_like(f)
-        light[near] = cv2.boxFilter(dim, -1, box, normalize=False)[near] / count[near]
-        return shade, light
+        return shade, own
+
+
+def nonzero_2d(mask):
+    """``np.nonzero`` of a 2-D boolean ``mask`` (rows, columns; in the same order), by
+    its flat indices: several times faster than ``np.nonzero`` of a 2-D array (numpy
+    2.x), which the tracker calls a few times each frame."""
+    idx = np.flatnonzero(mask)
+    ys = idx // mask.shape[1]
+    return ys, idx - ys * mask.shape[1]
+
+
+def _squares(ys, xs, rows, cols):
+    """Index arrays (broadcasting to ``(k, side, side)``) of the ``SHADOW_WINDOW_PX``
+    square round each pixel ``(ys, xs)`` of a frame of ``rows`` x ``cols``, reflected at
+    the frame's edge as OpenCV's box filter reflects it (``BORDER_REFLECT_101``: row -1
+    is row 1, row ``rows`` is row ``rows - 2``)."""
+    half = SHADOW_WINDOW_PX // 2
+    off = np.arange(-half, half + 1)
+
+    def reflect(i, n):
+        i = np.abs(i)
+        return np.where(i >= n, 2 * (n - 1) - i, i)
+
+    return (reflect(ys[:, None] + off, rows)[:, :, None],
+            reflect(xs[:, None] + off, cols)[:, None, :])
+
+
+def _box_at(squares, normalize=True):
+    """``cv2.boxFilter`` (float32, ``SHADOW_WINDOW_PX`` square) at the centres of
+    ``squares`` (``(k, side, side)``, each the square round a pixel of the frame), as
+    over the whole frame.
+
+    The squares are laid side by side in a strip one square high and box-filtered: the
+    box round each square's centre is that square, whole, and OpenCV sums a box in
+    double precision (exactly, for a frame's values: grey levels, their products with
+    the background), so the centre's value is the whole frame's there bit for bit.
+    """
+    side = SHADOW_WINDOW_PX
+    k = squares.shape[0]
+    strip = np.ascontiguousarray(squares.transpose(1, 0, 2).reshape(side, side * k),
+                                 dtype=np.float32)
+    out = cv2.boxFilter(strip, -1, (side, side), normalize=normalize)
+    return out[side // 2, side // 2::side]
+
+
+def _light(shade, own):
+    """The factor by which a shadow dims the background round each pixel: the mean
+    ``own`` (frame / background) of the ``shade`` pixels in the square round it, 1
+    where there are none."""
+    box = (SHADOW_WINDOW_PX, SHADOW_WINDOW_PX)
+    dim = np.where(shade, own, 0.0).astype(np.float32)
+    count = cv2.boxFilter(shade.astype(np.float32), -1, box, normalize=False)
+    near = count > 0
+    light = np.ones_like(own)
+    light[near] = cv2.boxFilter(dim, -1, box, normalize=False)[near] / count[near]
+    return light
 
 
 def _box_stats(img):
@@ -170,7 +290,12 @@ def _box_stats(img):
 
 def _percentile_by_label(values, labels, n, q):
     """The ``q`` quantile (0..1, lower) of ``values`` within each label ``0..n-1``."""
-    order = np.lexsort((values, labels))
+    # (sorted by value, then by label with a stable sort: the values of each label in
+    # order, as np.lexsort((values, labels)) gives them; a small label type lets numpy
+    # sort the labels by radix, several times faster than lexsort)
+    order = np.argsort(values, kind="stable")
+    small = labels.astype(np.int16) if n <= np.iinfo(np.int16).max else labels
+    order = order[np.argsort(small[order], kind="stable")]
     counts = np.bincount(labels, minlength=n)
     starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
     idx = starts + np.floor(q * np.maximum(counts - 1, 0)).astype(np.int64)
@@ -264,7 +389,7 @@ class Detector:
         if n <= 1:
             return np.zeros(0, DETECTION_DTYPE)
         seed = cv2.compare(absd, self.seed_level, cv2.CMP_GT)
-        ys, xs = np.nonzero(seed)
+        ys, xs = nonzero_2d(seed != 0)
         seeded = np.zeros(n, bool)
         seeded[lab[ys, xs]] = True
         seeded[0] = False
@@ -276,12 +401,24 @@ class Detector:
             keep = keep[np.argsort(stats[keep, cv2.CC_STAT_AREA])[::-1][:4 * MAX_DETECTIONS]]
         # the kept components, relabelled 1..m, grown by a pixel (a pixel between two
         # takes the larger label: rare, and only at their edges)
+        # (over the kept components' bounding box grown by the pixel: nothing is kept
+        # beyond it, and the dilation ignores the crop's edge as it does the frame's)
+        r0 = max(int(stats[keep, cv2.CC_STAT_TOP].min()) - 1, 0)
+        c0 = max(int(stats[keep, cv2.CC_STAT_LEFT].min()) - 1, 0)
+        r1 = min(int((stats[keep, cv2.CC_STAT_TOP] + stats[keep, cv2.CC_STAT_HEIGHT]).max())
+                 + 1, self.rows)
+        c1 = min(int((stats[keep, cv2.CC_STAT_LEFT] + stats[keep, cv2.CC_STAT_WIDTH]).max())
+                 + 1, self.cols)
         remap = np.zeros(n, np.float32)
         remap[keep] = np.arange(1, keep.size + 1, dtype=np.float32)
-        own = remap[lab]
+        own = remap[lab[r0:r1, c0:c1]]
         grown = cv2.dilate(own, _KERNEL3)
-        ys, xs = np.nonzero(grown)
+        ys, xs = nonzero_2d(grown != 0)
         li = grown[ys, xs].astype(np.int64) - 1
+        # (the component's own pixels, not the grown ring: the photometric test's)
+        core = own[ys, xs] > 0
+        ys += r0
+        xs += c0
         m = keep.size
         d = diff[ys, xs].astype(np.float64)
         bgv = self.bg[ys, xs].astype(np.float64)
@@ -338,8 +475,7 @@ class Detector:
         # (a mixed object's contrast is its body's)
         wb = np.where(body[li] * d >= 0, w, 0.0)
         contrast = np.bincount(li, wb * d, m) / np.maximum(np.bincount(li, wb, m), 1e-12)
-        # the photometric test, over the component's own pixels (not the grown ring)
-        core = own[ys, xs] > 0
+        # the photometric test, over the component's own pixels (core)
         ratio = fv / np.maximum(bgv, 1.0)
         ratio_p10 = _percentile_by_label(ratio[core], li[core], m, 0.1)
         dark_all = np.bincount(li, core & (d >= 0), m) == 0

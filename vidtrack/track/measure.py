@@ -19,7 +19,7 @@ touches it. :mod:`vidtrack.track.flag` tests it against the chain's clean frames
 import cv2
 import numpy as np
 
-from vidtrack.track.detect import CLEAR_SIGMAS, pixel_weights
+from vidtrack.track.detect import CLEAR_SIGMAS, nonzero_2d, pixel_weights
 from vidtrack.track.ellipse import fit_ellipse
 from vidtrack.track.rod import fit_rod
 from vidtrack.track.path import robust_scale
@@ -126,7 +126,7 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     (r0, c0), bg, sg, d, fg, shade, (n_lab, lab) = _crop(
         frame, background, sigma, (cu, cv), reach, max(2.0 * a, 3.0), settings,
         shadow_test)
-    ys, xs = np.nonzero(cv2.dilate(fg, _KERNEL3))
+    ys, xs = nonzero_2d(cv2.dilate(fg, _KERNEL3) != 0)
     if ys.size == 0:
         return cu, cv, 0.0, np.nan, np.nan, np.nan, np.nan, None
     level = float(det["level"]) if np.isfinite(det["level"]) and det["level"] > 0 else 1.0
@@ -314,7 +314,7 @@ def _crop(frame, background, sigma, centre, reach, near_px, settings, shadow_tes
             d = f - bg
     n_lab, lab = cv2.connectedComponents(fg, connectivity=8)
     if n_lab > 2:
-        ly, lx = np.nonzero(lab)
+        ly, lx = nonzero_2d(lab != 0)
         near = np.hypot(lx + c0 - cu, ly + r0 - cv) <= near_px
         counts = np.bincount(lab[ly[near], lx[near]], minlength=n_lab)
         counts[0] = 0

@@ -60,24 +60,37 @@ def _phi(z):
     return _INV_SQRT_2PI * np.exp(-0.5 * z * z)
 
 
-#: The signs of the four blurred ramps that make a bar seen through the pixel's box.
-_SIGNS = np.array([1.0, -1.0, -1.0, 1.0])[:, None]
+#: The edges (+1/2, -1/2 px: the pixel's box) of the four blurred ramps that make a bar
+#: seen through the pixel's box, the ramps at ``+half`` first, then at ``-half``, with
+#: signs ``+, -, -, +``.
 _EDGES = np.array([0.5, -0.5, 0.5, -0.5])[:, None]
-_HALF = np.array([1.0, 1.0, -1.0, -1.0])[:, None]
+_HALF = np.array([1.0, 1.0, -1.0, -1.0])
 
 
-def _box(half, t, s):
-    """A bar of half width ``half`` blurred by ``s``, integrated over the pixel's unit box
-    round ``t``; its derivatives by ``t``, ``half`` and ``s``."""
+def _profiles(half, t, s):
+    """Bars of half widths ``half`` (2,) blurred by ``s`` (2,), each integrated over the
+    pixel's unit box round its row of ``t`` (2, n); per bar its value and derivatives
+    by ``t``, ``half`` and ``s``, as four (2, n) arrays.
+
+    The bar across the rod and the bar along it are worked out together (one call of
+    ``ndtr`` and of ``exp`` for both: the profiles cost a fit most of its time), and the
+    four ramps of each are combined one after another, ``((r0 - r1) - r2) + r3``, as a
+    sum over them with their signs adds them: the same numbers bit for bit.
+    """
     from scipy.special import ndtr
 
-    z = (_HALF * half - t[None, :] + _EDGES) / s
+    z = (half[:, None, None] * _HALF[None, :, None] - t[:, None, :] + _EDGES) / s[:, None, None]
     cdf = ndtr(z)
-    pdf = _INV_SQRT_2PI * np.exp(-0.5 * z * z)
-    val = s * np.sum(_SIGNS * (z * cdf + pdf), axis=0)
-    d_t = -np.sum(_SIGNS * cdf, axis=0)
-    d_half = cdf[0] - cdf[1] + cdf[2] - cdf[3]
-    d_s = np.sum(_SIGNS * pdf, axis=0)
+    pdf = np.multiply(z, -0.5)
+    pdf *= z
+    np.exp(pdf, out=pdf)
+    pdf *= _INV_SQRT_2PI
+    g = z * cdf
+    g += pdf
+    val = s[:, None] * (((g[:, 0] - g[:, 1]) - g[:, 2]) + g[:, 3])
+    d_t = -(((cdf[:, 0] - cdf[:, 1]) - cdf[:, 2]) + cdf[:, 3])
+    d_half = ((cdf[:, 0] - cdf[:, 1]) + cdf[:, 2]) - cdf[:, 3]
+    d_s = ((pdf[:, 0] - pdf[:, 1]) - pdf[:, 2]) + pdf[:, 3]
     return val, d_t, d_half, d_s
 
 
@@ -85,9 +98,15 @@ def _parts(p, x, y):
     u, v, th, h, w, _a, s, s2 = p
     ca, sa = math.cos(th), math.sin(th)
     dx, dy = x - u, y - v
-    q = dx * ca + dy * sa
-    r = dy * ca - dx * sa
-    return ca, sa, q, r, _box(w, r, s), _box(h, q, s2)
+    qr = np.empty((2, x.size))
+    q, r = qr[1], qr[0]
+    np.add(dx * ca, dy * sa, out=q)
+    np.subtract(dy * ca, dx * sa, out=r)
+    # (across the rod: half width w along r, blur s; along it: half length h along q,
+    # blur s2)
+    val, d_t, d_half, d_s = _profiles(np.array([w, h]), qr, np.array([s, s2]))
+    return (ca, sa, q, r, (val[0], d_t[0], d_half[0], d_s[0]),
+            (val[1], d_t[1], d_half[1], d_s[1]))
 
 
 def _model(p, x, y):
@@ -99,7 +118,9 @@ def _jacobian(p, x, y, parts=None):
     a = p[5]
     ca, sa, q, r, (ac, ac_r, ac_w, ac_s), (al, al_q, al_h, al_s) = (
         _parts(p, x, y) if parts is None else parts)
-    jac = np.empty((x.size, 8))
+    # (column-major, as least squares was always handed it: a column taken out by
+    # indexing is; its sums over the pixels then add in the same order)
+    jac = np.empty((8, x.size)).T
     # (dq/du = -cos, dq/dv = -sin, dr/du = sin, dr/dv = -cos; dq/dth = r, dr/dth = -q)
     jac[:, 0] = a * (ac_r * sa * al - ac * al_q * ca)
     jac[:, 1] = a * (-ac_r * ca * al - ac * al_q * sa)
@@ -122,7 +143,8 @@ class _Cached:
         self.parts = None
 
     def _at(self, p):
-        if self.p is None or not np.array_equal(p, self.p):
+        # (an element-wise test: np.array_equal's checks cost more than it, each call)
+        if self.p is None or not (p == self.p).all():
             self.p = np.array(p, copy=True)
             self.parts = _parts(p, self.x, self.y)
         return self.parts
@@ -183,9 +205,14 @@ def fit_rod(x, y, cover, start, profile=None, measured=None, cap_px=2.0, hold=()
         p[free] = q
         return p
 
+    if free.size == p0.size:
+        # (nothing held: the parameters are the free ones, no copies to make)
+        fun, jac = cached.residual, cached.jacobian
+    else:
+        fun = lambda q: cached.residual(full(q))            # noqa: E731
+        jac = lambda q: cached.jacobian(full(q))[:, free]   # noqa: E731
     try:
-        res = least_squares(lambda q: cached.residual(full(q)), p0[free],
-                            jac=lambda q: cached.jacobian(full(q))[:, free],
+        res = least_squares(fun, p0[free], jac=jac,
                             bounds=(lo[free], hi[free]), loss=LOSS, f_scale=F_SCALE,
                             xtol=1e-5, ftol=1e-5, max_nfev=60)
     except (ValueError, np.linalg.LinAlgError):
