@@ -191,17 +191,19 @@ def test_compressed_blocks_that_repeat_set_the_noise_floor():
 # ------------------------------------------------------------------ without the object
 def _held_ball_samples(rng, k=25, held=17, noise=1.5):
     """``k`` samples of a textured wall, a bright ball standing at one place in the first
-    ``held`` of them and elsewhere (falling) in the rest; the wall, the masks."""
+    ``held`` of them and elsewhere (falling) in the rest; the wall, the samples, the
+    discs ``(u, v, radius)`` where it lies and the same as masks."""
     shape = (70, 90)
     wall = texture(shape, rng=rng, mean=110.0, contrast=12.0)
-    samples, covered = [], []
+    samples, discs = [], []
     for i in range(k):
         u, v = (30.0, 25.0) if i < held else (30.0 + 1.5 * i, 25.0 + 1.2 * i)
-        cov = disc_coverage(shape, u, v, 5.0)
-        samples.append(compose(wall, cov, 230.0, rng=rng, noise=noise))
-        yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
-        covered.append((xx - u) ** 2 + (yy - v) ** 2 <= 8.0 ** 2)
-    return wall, samples, np.array(covered)
+        samples.append(compose(wall, disc_coverage(shape, u, v, 5.0), 230.0, rng=rng,
+                               noise=noise))
+        discs.append((u, v, 8.0))
+    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    covered = np.array([(xx - u) ** 2 + (yy - v) ** 2 <= r * r for u, v, r in discs])
+    return wall, samples, np.array(discs), covered
 
 
 def test_the_background_is_taken_again_without_an_object_that_stood_still():
@@ -209,11 +211,11 @@ def test_the_background_is_taken_again_without_an_object_that_stood_still():
     120 over the wall); taken again from the 8 samples that show the wall, the background
     is the wall drawn, within the noise of a median of 8."""
     rng = np.random.default_rng(7)
-    wall, samples, covered = _held_ball_samples(rng)
+    wall, samples, discs, covered = _held_ball_samples(rng)
     bg = estimate_background(samples, pairs=[(samples[0], samples[1])])
     where = covered[0]
     assert np.abs(bg.image[where] - wall[where]).max() > 100.0
-    redone, taken, held = without_object(bg, samples, covered)
+    redone, taken, held = without_object(bg, samples, discs)
     assert not held.any()
     assert taken[where].all() and not taken[~covered.any(axis=0)].any()
     assert np.abs(redone.image[where] - wall[where]).max() < 3.0
@@ -226,11 +228,14 @@ def test_no_sample_shows_the_wall_where_the_object_never_left():
     """A ball in 24 of 25 samples at one place: fewer than MIN_LEFT samples show the
     wall, so those pixels are held (kept as they were), not taken from one sample."""
     rng = np.random.default_rng(8)
-    wall, samples, covered = _held_ball_samples(rng, held=24)
+    wall, samples, discs, covered = _held_ball_samples(rng, held=24)
     bg = estimate_background(samples, pairs=[(samples[0], samples[1])])
-    redone, taken, held = without_object(bg, samples, covered)
+    redone, taken, held = without_object(bg, samples, discs)
     assert MIN_LEFT == 2
     assert held[covered[0]].all() and not held[~covered[0]].any()
     assert np.array_equal(redone.image[held], bg.image[held])
-    with pytest.raises(ValueError, match="24 masks for 25 samples"):
-        without_object(bg, samples, covered[:24])
+    # the samples read only where a pixel is taken again, by a function as well
+    again = without_object(bg, lambda k: samples[k], discs)
+    assert np.array_equal(again[0].image, redone.image)
+    with pytest.raises(ValueError, match="24 discs for 25 samples"):
+        without_object(bg, samples, discs[:24])

@@ -719,20 +719,27 @@ def test_a_dark_ball_with_a_highlight_is_measured_whole():
 
 
 # ------------------------------------------------------------------ an object held still
-@pytest.mark.parametrize("level", [230.0, 30.0], ids=["bright", "dark"])
-def test_a_ball_held_still_over_most_of_the_footage_then_dropped(tmp_path, level):
+@pytest.mark.parametrize("level, hold", [(230.0, True), (30.0, True), (30.0, False)],
+                         ids=["bright", "dark", "dark-not-held"])
+def test_a_ball_held_still_over_most_of_the_footage_then_dropped(tmp_path, monkeypatch, level,
+                                                                  hold):
     """A ball 18 px across stands still over the first 130 of 240 frames before a
     textured wall, then falls slowly: the median of the background's samples is the
     ball where it stood, which hides it there and leaves its "ghost" as it goes (before:
     the chain began only where the ball had left its ghost, 70 of the 110 falling frames
     unflagged). The background is taken again without it and the view tracked again:
     every unflagged frame within 0.5 px of the ball's drawn centre, the frames at rest
-    PRE_RELEASE (not in flight), nearly all of the fall unflagged (109 and 108)."""
+    PRE_RELEASE (not in flight), nearly all of the fall unflagged (109 and 108). Footage
+    too long to hold in memory (here: any) reads the background's samples again: the
+    same track."""
     from rod_render import compose, disc_coverage, texture, write_avi
 
     from vidtrack.footage import open_source
+    from vidtrack.track import flight
     from vidtrack.track.tracker import PRE_RELEASE, track
 
+    if not hold:
+        monkeypatch.setattr(flight, "HOLD_BYTES", 0)
     rng = np.random.default_rng(21)
     shape, n, rest, radius = (180, 240), 240, 130, 9.0
     wall = texture(shape, rng=rng, mean=120.0, contrast=12.0)

@@ -491,7 +491,7 @@ def gather_samples(get, n_frames, *, samples=25, first=0):
     return idx, frames, pairs
 
 
-def without_object(background, samples, covered, *, stood_share=STOOD_SHARE,
+def without_object(background, samples, discs, *, stood_share=STOOD_SHARE,
                    min_left=MIN_LEFT):
     """The background taken again where the tracked object stood.
 
@@ -504,10 +504,13 @@ def without_object(background, samples, covered, *, stood_share=STOOD_SHARE,
     Parameters
     ----------
     background : Background
-    samples : sequence of numpy.ndarray
-        The frames the background's median was taken over, in its order.
-    covered : numpy.ndarray of bool
-        ``(len(samples), rows, cols)``: where the object lies in each sample.
+    samples : sequence of numpy.ndarray, or callable
+        The frames the background's median was taken over, in its order, or
+        ``samples(k)`` giving the k-th (read only where a pixel is taken again: footage
+        too long to hold need not keep them).
+    discs : numpy.ndarray
+        ``(len(samples), 3)``: where the object lies in each sample, a disc ``(u, v,
+        radius)`` in px.
     stood_share : float, optional
         :data:`STOOD_SHARE`.
     min_left : int, optional
@@ -520,19 +523,31 @@ def without_object(background, samples, covered, *, stood_share=STOOD_SHARE,
         taken again and the pixels ``held``: covered in all but fewer than ``min_left``
         samples, which no sample shows without the object (their value is kept).
     """
-    covered = np.asarray(covered, bool)
-    k = covered.shape[0]
-    if k != len(samples):
-        raise ValueError(f"{k} masks for {len(samples)} samples")
-    count = covered.sum(axis=0)
+    discs = np.asarray(discs, float).reshape(-1, 3)
+    k = discs.shape[0]
+    get = samples if callable(samples) else samples.__getitem__
+    if not callable(samples) and k != len(samples):
+        raise ValueError(f"{k} discs for {len(samples)} samples")
+    rows, cols = background.shape
+    count = np.zeros((rows, cols), np.int32)
+    for u, v, r in discs:
+        # (over the disc's bounding box only: memory and time of a frame, not k)
+        r0, r1 = max(int(np.floor(v - r)), 0), min(int(np.ceil(v + r)) + 1, rows)
+        c0, c1 = max(int(np.floor(u - r)), 0), min(int(np.ceil(u + r)) + 1, cols)
+        if r0 >= r1 or c0 >= c1:
+            continue
+        yy, xx = np.ogrid[r0:r1, c0:c1]
+        count[r0:r1, c0:c1] += (xx - u) ** 2 + (yy - v) ** 2 <= r * r
     stood = count >= max(stood_share * k, 1.0)
     held = stood & (k - count < min_left)
     redo = stood & ~held
     if not redo.any():
         return background, redo, held
     ys, xs = np.nonzero(redo)
-    values = np.stack([np.asarray(f)[ys, xs] for f in samples]).astype(np.float32)
-    values[covered[:, ys, xs]] = np.nan
+    covered = ((xs[None, :] - discs[:, :1]) ** 2 + (ys[None, :] - discs[:, 1:2]) ** 2
+               <= discs[:, 2:] ** 2)
+    values = np.stack([np.asarray(get(i))[ys, xs] for i in range(k)]).astype(np.float32)
+    values[covered] = np.nan
     image = background.image.copy()
     image[ys, xs] = np.nanmedian(values, axis=0)
     return replace(background, image=image), redo, held

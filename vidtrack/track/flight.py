@@ -101,7 +101,7 @@ def _frames(source, cancel):
 
 def _background(source, held, settings):
     """The background, a :class:`~vidtrack.track.steady.Steadier` (None where the
-    camera is steady) with its note, and the samples' indices and frames. ``held``
+    camera is steady) with its note, and the samples' frame positions. ``held``
     (footage held whole, or None) is moved back in place where the camera shakes."""
     n = len(held) if held is not None else len(source)
     if n < 3:
@@ -113,15 +113,14 @@ def _background(source, held, settings):
     steady, note = Steadier.look(frames, idx, background.image,
                                  agree_share=settings.camera_agree_share)
     if steady is None:
-        return background, None, note, (idx, frames)
+        return background, None, note, idx
     if held is not None:
         for i, frame in enumerate(held):
             held[i] = steady.warp(i, frame)
     else:
         get = lambda i: steady.warp(i, source[i])  # noqa: E731
     idx, frames, pairs = gather_samples(get, n, samples=samples)
-    return (estimate_background(frames, pairs=pairs, frames=idx), steady, note,
-            (idx, frames))
+    return estimate_background(frames, pairs=pairs, frames=idx), steady, note, idx
 
 
 def _disc_reach(shape, settings):
@@ -129,22 +128,18 @@ def _disc_reach(shape, settings):
     return settings.stood_reach * 2.0 * float(shape.major) + 1.0
 
 
-def _where_it_lies(chain, shape, at, frame_shape, settings):
-    """``(len(at), rows, cols)`` bool: the object's disc in frame positions ``at``, at
-    its chain's position there (interpolated between its frames). Before its chain's
+def _discs(chain, shape, at, settings):
+    """``(len(at), 3)``: the object's disc ``(u, v, radius)`` in frame positions ``at``,
+    at its chain's position there (interpolated between its frames). Before its chain's
     first frame the object is taken to be where it was first seen, after the last where
     it was last seen (held still before the throw, lying where it landed), in a disc
     twice as wide: an object first seen as it leaves a place it stood on, joined to its
     "ghost" there, is first seen a part of its size away from it."""
     idx = chain.frames
-    u = np.interp(at, idx, chain.u[idx])
-    v = np.interp(at, idx, chain.v[idx])
-    outside = (np.asarray(at) < idx[0]) | (np.asarray(at) > idx[-1])
-    rows, cols = frame_shape
-    yy, xx = np.ogrid[0:rows, 0:cols]
-    reach = _disc_reach(shape, settings)
-    return np.stack([(xx - cu) ** 2 + (yy - cv) ** 2 <= (reach * (2.0 if out else 1.0)) ** 2
-                     for cu, cv, out in zip(u, v, outside)])
+    at = np.asarray(at)
+    outside = (at < idx[0]) | (at > idx[-1])
+    return np.column_stack([np.interp(at, idx, chain.u[idx]), np.interp(at, idx, chain.v[idx]),
+                            _disc_reach(shape, settings) * np.where(outside, 2.0, 1.0)])
 
 
 def _over(chain, shape, mask, settings):
@@ -328,11 +323,16 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
         # the object's there; taken again from the samples that show the wall, and the
         # view tracked again where that moves enough of the object's area; the chain
         # then holds the object where it stood, which places it better the next time)
-        idx, frames = samples
+        if held is not None:
+            get = held.__getitem__
+        elif steady is not None:
+            get = lambda i: steady.warp(i, source[i])  # noqa: E731
+        else:
+            get = source.__getitem__
         first = background
         for again in range(1, AGAIN_MAX + 1):
             redone, taken, no_wall = without_object(
-                first, frames, _where_it_lies(chain, shape, idx, first.shape, settings),
+                first, lambda k: get(int(samples[k])), _discs(chain, shape, samples, settings),
                 stood_share=settings.stood_share)
             moved = taken & (np.abs(redone.image - background.image) > detector.grow_level)
             area = np.pi * 4.0 * float(shape.major) * max(float(shape.minor), 0.5)
