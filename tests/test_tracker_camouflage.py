@@ -42,11 +42,12 @@ def _drop(*, seed, level, wall, contrast, radius, highlight=0.0, hold=HOLD):
     return frames, path
 
 
-def _track(tmp_path, frames, truth):
-    """The track, each frame's distance to the truth (px), and which are unflagged."""
+def _track(tmp_path, frames, truth, engine=None):
+    """The track, each frame's distance to the truth (px), and which are unflagged (by
+    ``engine``, default the tracker's default)."""
     path = write_avi(tmp_path / "drop.avi", frames)
     with open_source(path, fps=1000.0) as src:
-        tr = track(src, view="front")
+        tr = track(src, view="front", **({} if engine is None else {"engine": engine}))
     d = tr.data
     err = np.hypot(d["u_px"].to_numpy() - truth[:, 0], d["v_px"].to_numpy() - truth[:, 1])
     return tr, err, tr.usable
@@ -90,17 +91,21 @@ def test_a_ball_held_where_the_background_is_taken_and_then_camouflaged(tmp_path
     assert np.all(err[ok] <= 0.6)
 
 
-def test_a_dark_ball_with_a_highlight_is_measured_whole(tmp_path):
+@pytest.mark.parametrize("engine", ["rules", "flight"])
+def test_a_dark_ball_with_a_highlight_is_measured_whole(tmp_path, engine):
     """A dark steel ball with a specular highlight on a dark textured wall: the glow round
     the highlight brings the ball to the wall's level, and its coverage read off it put
     the centre 0.4-0.7 px away from the highlight (57 frames over 0.5 px); inside its
-    outline (2 px plus its motion in a frame) it is now taken as fully covered."""
+    outline (2 px plus its motion in a frame) it is now taken as fully covered. Counted
+    over the 240 frames of its fall (the 60 it is held still are no flight: the flight
+    tracker flags them PRE_RELEASE, the rules tracker leaves them), measured: 223
+    unflagged, largest 0.47 px (rules); 229, largest 0.08 px (flight)."""
     frames, truth = _drop(seed=9, level=30.0, wall=60.0, contrast=15.0, radius=8.0,
                           highlight=150.0)
-    tr, err, ok = _track(tmp_path, frames, truth)
-    assert ok.sum() >= 250
-    # measured: 4 frames at 0.53-0.68 px, where it falls more than a pixel a frame and the
-    # interior taken as covered stops short of the highlight's glow
+    tr, err, ok = _track(tmp_path, frames, truth, engine=engine)
+    assert ok[HOLD:].sum() >= 215
+    # measured (rules): 4 frames at 0.53-0.68 px once, where it falls more than a pixel
+    # a frame and the interior taken as covered stops short of the highlight's glow
     assert np.count_nonzero(err[ok] > 0.5) <= 6
     assert np.all(err[ok] <= 0.75)
     assert np.median(err[ok]) <= 0.15
