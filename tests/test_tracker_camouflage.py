@@ -131,6 +131,30 @@ def test_the_ghost_of_a_ball_held_where_the_background_is_taken_is_not_followed(
     places; the notes say so."""
     frames, truth = _drop(**case)
     tr, err, ok = _track(tmp_path, frames, truth)
+    _ghost_checks(case, tr, err, ok, min_usable)
+
+
+@pytest.mark.parametrize("case, min_usable", [
+    # measured: 79 unflagged, within 0.06 px
+    (dict(seed=1, level=40.0, wall=70.0, contrast=10.0, radius=8.0, hold=170), 60),
+    pytest.param(dict(seed=3, level=40.0, wall=70.0, contrast=10.0, radius=10.0, hold=150),
+                 40, marks=pytest.mark.xfail(strict=True, reason=(
+                     "measured: 122 of 259 unflagged frames more than 0.5 px off (up to "
+                     "1.02 px), the still frames of the hold among them"))),
+    # measured: 120 unflagged, within 0.02 px
+    (dict(seed=24, level=220.0, wall=120.0, contrast=30.0, radius=10.0, hold=170), 20),
+])
+def test_the_ghost_of_a_held_ball_with_the_flight_tracker(tmp_path, case, min_usable):
+    """The same scenes with the flight tracker: the background is taken again without
+    the ball where its chain says it stood, and the view tracked again; its frames at
+    rest are PRE_RELEASE, and every unflagged frame within 0.5 px of the truth."""
+    frames, truth = _drop(**case)
+    tr, err, ok = _track(tmp_path, frames, truth, engine="flight")
+    _ghost_checks(case, tr, err, ok, min_usable)
+    assert not ok[:case["hold"] - 1].any()
+
+
+def _ghost_checks(case, tr, err, ok, min_usable):
     print(f"\nghost {case}: {ok.sum()} unflagged, largest error {err[ok].max():.2f} px; "
           f"{tr.notes}")
     assert any("ghost" in x for x in tr.notes), tr.notes
