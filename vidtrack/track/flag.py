@@ -82,6 +82,12 @@ REASONS = {"lost": "no detection of the object in this frame (LOST)",
                         "(PREDICTED)"}
 
 
+#: The object at rest: the straight line in time through its still frames moves less
+#: than this share of their tolerance (``rest_px``, ``rest_scatters``) across them; a
+#: slow object moving steadily within the tolerance is not at rest.
+REST_DRIFT_SHARE = 0.5
+
+
 def _at_rest(idx, uv, scatter, settings):
     """How many frames at the start of a chain (positions ``idx``, points ``uv``) the
     object lies still (``rest_frames``, ``rest_px``, ``rest_scatters``); 0 where it
@@ -99,7 +105,7 @@ def _at_rest(idx, uv, scatter, settings):
     t = idx[:run].astype(float)
     slope = np.polyfit(t - t.mean(), uv[:run], 1)[0]
     drift = float(np.hypot(*slope)) * (t[-1] - t[0])
-    return run if drift <= 0.5 * tol else 0
+    return run if drift <= REST_DRIFT_SHARE * tol else 0
 
 
 #: A frame is tested against its neighbours' path only where its prediction's variance

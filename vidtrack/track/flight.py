@@ -49,6 +49,10 @@ _AHEAD = 8
 #: from the frames held; longer footage has its background samples read first.
 HOLD_BYTES = 96 * 2 ** 20
 
+#: The object's area, for ``stood_moved_share``: the ellipse of twice its spreads, its
+#: spread across taken at least this much (px: a thin rod seen edge on still has one).
+MINOR_FLOOR_PX = 0.5
+
 #: At most this many times the view is tracked again against a background taken without
 #: the object (the second places the object where it stood by the chain the first found).
 AGAIN_MAX = 2
@@ -335,7 +339,7 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
                 first, lambda k: get(int(samples[k])), _discs(chain, shape, samples, settings),
                 stood_share=settings.stood_share)
             moved = taken & (np.abs(redone.image - background.image) > detector.grow_level)
-            area = np.pi * 4.0 * float(shape.major) * max(float(shape.minor), 0.5)
+            area = np.pi * 4.0 * float(shape.major) * max(float(shape.minor), MINOR_FLOOR_PX)
             if moved.sum() < settings.stood_moved_share * area:
                 break
             again_note = (f"background: the median held the object where it stood still "
