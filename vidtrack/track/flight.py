@@ -342,12 +342,23 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
             area = np.pi * 4.0 * float(shape.major) * max(float(shape.minor), MINOR_FLOOR_PX)
             if moved.sum() < settings.stood_moved_share * area:
                 break
+            try:
+                result = run(redone)
+            except TrackError as err:
+                # (the pass before stands: a second look that finds nothing or two
+                # objects does not undo the object the first one found)
+                again_note = (f"background: the median held the object where it stood "
+                              f"still; taken again without it there ({int(taken.sum())} "
+                              f"px), the view tracked again found no object "
+                              f"({str(err).removeprefix(name + ': ')}): the pass before "
+                              f"is kept")
+                break
             again_note = (f"background: the median held the object where it stood still "
                           f"(its ghost once it left); taken again without it there "
                           f"({int(taken.sum())} px) and the view tracked again "
                           f"({again} time{'s' if again > 1 else ''})")
             background = redone
-            detector, detections, tracklets, chain, others, shape = run(background)
+            detector, detections, tracklets, chain, others, shape = result
         over_held = _over(chain, shape, no_wall, settings)
     del samples
     n = len(detections)
