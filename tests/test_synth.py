@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 from fits.throw import position
-from vidtrack.synth._raster import Box, Capsule, Roi, box_coverage, capsule_coverage
+from vidtrack.synth._raster import (Box, Capsule, Roi, box_coverage, capsule_coverage,
+                                    shape_roi)
 from vidtrack.errors import VidtrackError
 from vidtrack.footage import open_source
 from vidtrack.scene import find_throw_dirs, load_scene
@@ -84,6 +85,118 @@ def test_straight_sides_are_exact():
     rows = np.arange(20)
     expect = np.clip(np.minimum(hi, rows + 0.5) - np.maximum(lo, rows - 0.5), 0, 1)
     np.testing.assert_allclose(col, expect, atol=1e-12)
+
+
+def _random_capsules(seed, n):
+    """Capsules of every kind the rasteriser meets: random ends and directions, radii
+    0.3-25 px, zero-length (discs), horizontal and vertical ones, ends and radii on
+    pixel centres, half-pixels and sub-grid steps (1/32 px: on the 16 x 16 grid's lines)."""
+    rng = np.random.default_rng(seed)
+    snaps = (None, 1.0, 2.0, 32.0)
+    for i in range(n):
+        snap = snaps[i % 4]
+        rounded = (lambda x: x) if snap is None else (lambda x, k=snap: np.round(x * k) / k)
+        a = rounded(rng.uniform(-3.0, 45.0, 2))
+        length, ang = rng.uniform(0.0, 40.0), rng.uniform(0.0, 2 * np.pi)
+        kind = i % 5
+        step = {0: (0.0, 0.0), 1: (length, 0.0), 2: (0.0, length)}.get(
+            kind, (length * np.cos(ang), length * np.sin(ang)))
+        b = rounded(a + np.array(step)) if kind > 0 else a.copy()
+        r = rounded(rng.uniform(0.3, 25.0)) if rng.random() < 0.5 else rng.uniform(0.3, 25.0)
+        yield Capsule(tuple(map(float, a)), tuple(map(float, b)), float(max(r, 0.3)))
+
+
+def _brute_force_inside(cap, pu, pv):
+    """Grid points (pu, pv) inside ``cap``, and their distance to its boundary (written
+    here, apart from the module: closest point ``a + t (b - a)``, ``t`` clipped)."""
+    a, b = np.asarray(cap.a_px), np.asarray(cap.b_px)
+    ab = b - a
+    L2 = float(ab @ ab)
+    t = np.clip(((pu - a[0]) * ab[0] + (pv - a[1]) * ab[1]) / L2, 0, 1) if L2 > 0 else 0.0
+    dist = np.hypot(pu - (a[0] + t * ab[0]), pv - (a[1] + t * ab[1]))
+    return dist <= cap.radius_px, np.abs(dist - cap.radius_px)
+
+
+def test_sampled_pixels_count_the_same_grid_points_as_brute_force():
+    """The sub-row counting (every pixel of the roi put through it, not only the rounded
+    ends' ones) against all 256 points tested one by one: equal, but where a point lies
+    within 1e-9 px of the boundary (the two computations may round it either way)."""
+    from vidtrack.synth import _raster
+
+    s = 16
+    offs = (np.arange(s) + 0.5) / s - 0.5
+    pixels = ties = 0
+    for cap in _random_capsules(7, 400):
+        roi = shape_roi(cap.extent_px()).clip((48, 52))
+        if roi.empty:
+            continue
+        rr, cc = np.nonzero(np.ones(roi.shape, dtype=bool))
+        got = _raster._sampled_coverage(cap, roi, rr, cc, s)
+        pu = (cc + roi.c0)[:, None, None] + offs[None, None, :]
+        pv = (rr + roi.r0)[:, None, None] + offs[None, :, None]
+        inside, margin = _brute_force_inside(cap, pu, pv)
+        expect = inside.reshape(rr.size, -1).mean(axis=1)
+        differ = got != expect
+        pixels += rr.size
+        if differ.any():
+            near = (margin.reshape(rr.size, -1) < 1e-9).any(axis=1)
+            assert near[differ].all(), (cap, roi, np.nonzero(differ & ~near))
+            ties += int(differ.sum())
+    assert pixels > 100_000
+    print(f"{pixels} pixels, {ties} differing by a point within 1e-9 px of the boundary")
+
+
+def test_capsule_coverage_rounded_ends_are_brute_force_counts():
+    """capsule_coverage's own sampled pixels (near a rounded end: centre within half a
+    diagonal of the boundary, not wholly beside the segment) are the brute-force count."""
+    s = 16
+    offs = (np.arange(s) + 0.5) / s - 0.5
+    half_diag = 0.5 * np.sqrt(2.0) + 1e-9
+    checked = 0
+    for cap in _random_capsules(11, 300):
+        roi = shape_roi(cap.extent_px()).clip((48, 52))
+        if roi.empty:
+            continue
+        cov = capsule_coverage(cap, roi, supersample=s)
+        rows = np.arange(roi.r0, roi.r1)[:, None]
+        cols = np.arange(roi.c0, roi.c1)[None, :]
+        a, b = np.asarray(cap.a_px), np.asarray(cap.b_px)
+        inside_c, margin_c = _brute_force_inside(cap, cols + 0.0, rows + 0.0)
+        edge = margin_c < half_diag - 1e-6           # clear of the classification's edge
+        length = float(np.hypot(*(b - a)))
+        if length > 0:
+            tu, tv = (b - a) / length
+            along = (cols - a[0]) * tu + (rows - a[1]) * tv
+            half = 0.5 * (abs(tu) + abs(tv))
+            edge &= (along < half - 1e-6) | (along > length - half + 1e-6)
+        er, ec = np.nonzero(edge)
+        pu = (ec + roi.c0)[:, None, None] + offs[None, None, :]
+        pv = (er + roi.r0)[:, None, None] + offs[None, :, None]
+        inside, margin = _brute_force_inside(cap, pu, pv)
+        expect = inside.reshape(er.size, -1).mean(axis=1)
+        differ = cov[er, ec] != expect
+        near = (margin.reshape(er.size, -1) < 1e-9).any(axis=1)
+        assert not (differ & ~near).any(), cap
+        checked += er.size
+    assert checked > 10_000
+
+
+def test_disc_coverage_sums_to_its_area():
+    """A disc (a zero-length capsule) is all rounded end: its coverage sums to pi r^2
+    within the grid's resolution (the 1/256 px^2 cells the circle crosses, at most
+    4 (2 r s + 2) of them), and without bias over many centres."""
+    rng = np.random.default_rng(5)
+    s, errors = 16, []
+    for i in range(300):
+        c = rng.uniform(30.0, 40.0, 2)
+        c = np.round(c * 2) / 2 if i % 3 == 0 else c
+        r = float(rng.uniform(0.3, 25.0))
+        cap = Capsule(tuple(c), tuple(c), r)
+        cov = capsule_coverage(cap, shape_roi(cap.extent_px()), supersample=s)
+        err = cov.sum() - np.pi * r * r
+        assert abs(err) <= 4 * (2 * r * s + 2) / s ** 2, (cap, err)
+        errors.append(err / (2 * np.pi * r))
+    assert abs(np.mean(errors)) < 1e-3          # per px of perimeter: no bias
 
 
 def test_shot_noise_is_poisson():
