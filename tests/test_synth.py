@@ -126,7 +126,7 @@ def test_sampled_pixels_count_the_same_grid_points_as_brute_force():
     s = 16
     offs = (np.arange(s) + 0.5) / s - 0.5
     pixels = ties = 0
-    for cap in _random_capsules(7, 400):
+    for cap in _random_capsules(7, 120):
         roi = shape_roi(cap.extent_px()).clip((48, 52))
         if roi.empty:
             continue
@@ -142,7 +142,7 @@ def test_sampled_pixels_count_the_same_grid_points_as_brute_force():
             near = (margin.reshape(rr.size, -1) < 1e-9).any(axis=1)
             assert near[differ].all(), (cap, roi, np.nonzero(differ & ~near))
             ties += int(differ.sum())
-    assert pixels > 100_000
+    assert pixels > 30_000
     print(f"{pixels} pixels, {ties} differing by a point within 1e-9 px of the boundary")
 
 
