@@ -20,6 +20,15 @@ SMALL = ["--size", "320x150", "--top-size", "320x96", "--straw-length-m", "0.25"
          "--straw-diameter-m", "0.025", "--quality", "60", "--noise", "1.0"]
 
 
+#: The motion blur averaged over 2 renders a frame, not 8 (a quarter of the rendering),
+#: for the runs rendered to check what a fit reports (not determined, gravity alone,
+#: replicate throws, a folder of runs), not how closely it tracks; the module's run,
+#: whose k are checked against the issue's tolerances, keeps the renderer's 8.
+#: (Measured: the drag-free run's k1, k2 1.20072, 0.80030 with 8 and 1.20075, 0.80031
+#: with 2 (truth 1.2, 0.8); the front view's k1 2.1976 and 2.1973 (truth 2.2).)
+BLUR_2 = ("--exposure-samples", "2")
+
+
 def synth(cli, out, *extra):
     res = cli("synth", out, *SMALL, *extra)
     assert res.returncode == 0, res.stderr
@@ -145,7 +154,8 @@ def test_records_logged_in_the_worker_are_logged_again_in_the_caller():
 
 
 def test_front_view_only_reports_k4_not_determined(vidtrack_cli, tmp_path):
-    run = synth(vidtrack_cli, tmp_path / "front", "--views", "front", "--flight-s", "0.3")
+    run = synth(vidtrack_cli, tmp_path / "front", "--views", "front", "--flight-s", "0.3",
+                *BLUR_2)
     record = json.loads(fit(vidtrack_cli, run, "--json").stdout)
     assert not record["coefficients"]["k4"]["determined"]
     assert "top view" in record["coefficients"]["k4"]["reason"]
@@ -156,7 +166,7 @@ def test_front_view_only_reports_k4_not_determined(vidtrack_cli, tmp_path):
 
 def test_throw_without_descent_reports_k2_not_determined(vidtrack_cli, tmp_path):
     run = synth(vidtrack_cli, tmp_path / "up", "--flight-s", "0.09",
-                "--state", "0.24,-0.05,0,7.3,3.5,2.0")
+                "--state", "0.24,-0.05,0,7.3,3.5,2.0", *BLUR_2)
     record = json.loads(fit(vidtrack_cli, run, "--json").stdout)
     c = record["coefficients"]["k2"]
     assert not c["determined"] and "no descent" in c["reason"]
@@ -164,7 +174,7 @@ def test_throw_without_descent_reports_k2_not_determined(vidtrack_cli, tmp_path)
 
 def test_drag_free_scene_fits_gravity_multipliers(vidtrack_cli, tmp_path):
     run = synth(vidtrack_cli, tmp_path / "free", "--cp", "0", "--k", "1.2,0.8,1,1",
-                "--flight-s", "0.3")
+                "--flight-s", "0.3", *BLUR_2)
     record = json.loads(fit(vidtrack_cli, run, "--json").stdout)
     assert record["coefficients"]["k1"]["value"] == pytest.approx(1.2, rel=0.03)
     assert record["coefficients"]["k2"]["value"] == pytest.approx(0.8, rel=0.03)
@@ -180,7 +190,7 @@ def replicate_run(tmp_path_factory):
     from conftest import run_vidtrack
 
     run = synth(run_vidtrack, tmp_path_factory.mktemp("replicate") / "run", "--throws", "2",
-                "--flight-s", "0.25")
+                "--flight-s", "0.25", *BLUR_2)
     res = run_vidtrack("fit", run, "--json")
     assert res.returncode == 0, res.stderr
     return run, json.loads(res.stdout)
@@ -200,13 +210,9 @@ def test_replicate_throws_are_fitted_and_averaged(replicate_run):
 
 
 def test_folder_of_runs_in_parallel(vidtrack_cli, tmp_path):
-    # (two renders of the motion blur averaged over 2 instead of 8 renders a frame: what
-    # is checked is that a folder's runs are fitted in parallel, not how well)
     runs = tmp_path / "runs"
-    synth(vidtrack_cli, runs / "a", "--flight-s", "0.2", "--seed", "1",
-          "--exposure-samples", "2")
-    synth(vidtrack_cli, runs / "b", "--flight-s", "0.2", "--seed", "2",
-          "--exposure-samples", "2")
+    synth(vidtrack_cli, runs / "a", "--flight-s", "0.2", "--seed", "1", *BLUR_2)
+    synth(vidtrack_cli, runs / "b", "--flight-s", "0.2", "--seed", "2", *BLUR_2)
     res = fit(vidtrack_cli, runs, "--jobs", "2", "--json")
     assert res.returncode == 0, res.stderr
     records = json.loads(res.stdout)
