@@ -20,6 +20,15 @@ SMALL = ["--size", "320x150", "--top-size", "320x96", "--straw-length-m", "0.25"
          "--straw-diameter-m", "0.025", "--quality", "60", "--noise", "1.0"]
 
 
+#: The motion blur averaged over 2 renders a frame, not 8 (a quarter of the rendering),
+#: for the runs rendered to check what a fit reports (not determined, gravity alone,
+#: replicate throws, a folder of runs), not how closely it tracks; the module's run,
+#: whose k are checked against the issue's tolerances, keeps the renderer's 8.
+#: (Measured: the drag-free run's k1, k2 1.20072, 0.80030 with 8 and 1.20075, 0.80031
+#: with 2 (truth 1.2, 0.8); the front view's k1 2.1976 and 2.1973 (truth 2.2).)
+BLUR_2 = ("--exposure-samples", "2")
+
+
 def synth(cli, out, *extra):
     res = cli("synth", out, *SMALL, *extra)
     assert res.returncode == 0, res.stderr
@@ -145,7 +154,8 @@ def test_records_logged_in_the_worker_are_logged_again_in_the_caller():
 
 
 def test_front_view_only_reports_k4_not_determined(vidtrack_cli, tmp_path):
-    run = synth(vidtrack_cli, tmp_path / "front", "--views", "front", "--flight-s", "0.3")
+    run = synth(vidtrack_cli, tmp_path / "front", "--views", "front", "--flight-s", "0.3",
+                *BLUR_2)
     record = json.loads(fit(vidtrack_cli, run, "--json").stdout)
     assert not record["coefficients"]["k4"]["determined"]
     assert "top view" in record["coefficients"]["k4"]["reason"]
@@ -156,7 +166,7 @@ def test_front_view_only_reports_k4_not_determined(vidtrack_cli, tmp_path):
 
 def test_throw_without_descent_reports_k2_not_determined(vidtrack_cli, tmp_path):
     run = synth(vidtrack_cli, tmp_path / "up", "--flight-s", "0.09",
-                "--state", "0.24,-0.05,0,7.3,3.5,2.0")
+                "--state", "0.24,-0.05,0,7.3,3.5,2.0", *BLUR_2)
     record = json.loads(fit(vidtrack_cli, run, "--json").stdout)
     c = record["coefficients"]["k2"]
     assert not c["determined"] and "no descent" in c["reason"]
@@ -164,7 +174,7 @@ def test_throw_without_descent_reports_k2_not_determined(vidtrack_cli, tmp_path)
 
 def test_drag_free_scene_fits_gravity_multipliers(vidtrack_cli, tmp_path):
     run = synth(vidtrack_cli, tmp_path / "free", "--cp", "0", "--k", "1.2,0.8,1,1",
-                "--flight-s", "0.3")
+                "--flight-s", "0.3", *BLUR_2)
     record = json.loads(fit(vidtrack_cli, run, "--json").stdout)
     assert record["coefficients"]["k1"]["value"] == pytest.approx(1.2, rel=0.03)
     assert record["coefficients"]["k2"]["value"] == pytest.approx(0.8, rel=0.03)
@@ -173,9 +183,21 @@ def test_drag_free_scene_fits_gravity_multipliers(vidtrack_cli, tmp_path):
         assert "Cp = 0" in record["coefficients"][k]["reason"]
 
 
-def test_replicate_throws_are_fitted_and_averaged(vidtrack_cli, tmp_path):
-    run = synth(vidtrack_cli, tmp_path / "throws", "--throws", "2", "--flight-s", "0.25")
-    record = json.loads(fit(vidtrack_cli, run, "--json").stdout)
+@pytest.fixture(scope="module")
+def replicate_run(tmp_path_factory):
+    """A run of two replicate throws, rendered and fitted once (``fit --json``): (the
+    run, the fit's record). Shared: the tests copy it before changing anything."""
+    from conftest import run_vidtrack
+
+    run = synth(run_vidtrack, tmp_path_factory.mktemp("replicate") / "run", "--throws", "2",
+                "--flight-s", "0.25", *BLUR_2)
+    res = run_vidtrack("fit", run, "--json")
+    assert res.returncode == 0, res.stderr
+    return run, json.loads(res.stdout)
+
+
+def test_replicate_throws_are_fitted_and_averaged(replicate_run):
+    run, record = replicate_run
     assert record["throws"] == 2
     per = [json.loads((run / "vidtrack" / d / "fit.json").read_text())
            for d in ("01", "02")]
@@ -187,21 +209,23 @@ def test_replicate_throws_are_fitted_and_averaged(vidtrack_cli, tmp_path):
         assert record["coefficients"][k]["value"] == pytest.approx(np.mean(values))
 
 
-def test_folder_of_runs_in_parallel(vidtrack_cli, tmp_path, two_view_run):
+def test_folder_of_runs_in_parallel(vidtrack_cli, tmp_path):
     runs = tmp_path / "runs"
-    synth(vidtrack_cli, runs / "a", "--flight-s", "0.2", "--seed", "1")
-    synth(vidtrack_cli, runs / "b", "--flight-s", "0.2", "--seed", "2")
+    synth(vidtrack_cli, runs / "a", "--flight-s", "0.2", "--seed", "1", *BLUR_2)
+    synth(vidtrack_cli, runs / "b", "--flight-s", "0.2", "--seed", "2", *BLUR_2)
     res = fit(vidtrack_cli, runs, "--jobs", "2", "--json")
     assert res.returncode == 0, res.stderr
     records = json.loads(res.stdout)
     assert [r["run"] for r in records] == ["a", "b"]
 
 
-def test_dask_local_cluster(tmp_path):
+def test_dask_local_cluster(tmp_path, two_view_run):
     import distributed                      # in the test extra (the dask extra for users)
     from conftest import run_vidtrack
 
-    run = synth(run_vidtrack, tmp_path / "d", "--flight-s", "0.2")
+    # the module's rendered run, without its outputs: tracked and fitted on the cluster
+    run = tmp_path / "d"
+    shutil.copytree(two_view_run, run, ignore=shutil.ignore_patterns("vidtrack"))
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster:
         res = run_vidtrack("fit", run, "--scheduler", cluster.scheduler_address, "--json")
@@ -297,10 +321,13 @@ def test_a_fit_that_does_not_converge_says_why_and_leaves_no_fit(vidtrack_cli, t
     from vidtrack.run.tracks_file import read_tracks, write_tracks
 
     run = tmp_path / "nofit"
-    shutil.copytree(two_view_run, run, ignore=shutil.ignore_patterns("vidtrack"))
+    # copied with its outputs: its tracks reused (or tracked, if not yet), the fit and
+    # the reports made
+    shutil.copytree(two_view_run, run)
     assert fit(vidtrack_cli, run).returncode == 0
     out = run / "vidtrack"
-    assert (out / "fit.json").exists()
+    for name in ("fit.json", "report.md", "report.html"):
+        assert (out / name).exists(), name
     tf = read_tracks(out / "tracks.h5")
     tf.world.data["y_m"] = tf.world.data["y_m"] * 1e300
     write_tracks(out / "tracks.h5", tf.tracks, tf.world, scene_hash=tf.scene_hash,
@@ -396,12 +423,12 @@ def test_inputs_that_disagree_stop_the_fit_unless_accepted(vidtrack_cli, tmp_pat
     assert digest_tree(run) == before
 
 
-def test_good_runs_pass_the_cross_checks_with_a_margin(vidtrack_cli, tmp_path, two_view_run):
-    """run42 and a rendered run: no finding, and each measure far inside its limit."""
+def test_good_runs_pass_the_cross_checks_with_a_margin(vidtrack_cli, run42_fit, two_view_run):
+    """run42 (the module's fit of it from scratch) and a rendered run: no finding, and
+    each measure far inside its limit."""
     from vidtrack.run.checks import SPEED_RATIO_TOL, X_RMS_MAX_PX
 
-    for run in (run42_copy(tmp_path / "run42"), two_view_run):
-        res = fit(vidtrack_cli, run, "--json")
+    for res in (run42_fit[1], fit(vidtrack_cli, two_view_run, "--json")):
         assert res.returncode == 0, res.stderr
         record = json.loads(res.stdout)
         assert record["checks"] == [] and "warning" not in res.stderr
@@ -455,12 +482,21 @@ def _k1(run):
 
 
 @pytest.fixture(scope="module")
-def fitted_run42(tmp_path_factory):
+def run42_fit(tmp_path_factory):
+    """run42 copied and fitted from scratch by ``vidtrack fit --json``: (the run, the
+    CompletedProcess of its fit)."""
     from conftest import run_vidtrack
 
     run = run42_copy(tmp_path_factory.mktemp("cache") / "run")
-    assert run_vidtrack("fit", run, "-q").returncode == 0
-    return run
+    res = run_vidtrack("fit", run, "--json")
+    assert res.returncode == 0, res.stderr
+    return run, res
+
+
+@pytest.fixture(scope="module")
+def fitted_run42(run42_fit):
+    """The run of :func:`run42_fit`. Shared: the tests copy it before changing anything."""
+    return run42_fit[0]
 
 
 TAMPERING = {
@@ -626,10 +662,12 @@ def test_a_failed_rerun_leaves_no_output_that_looks_current(vidtrack_cli, tmp_pa
     assert digest_tree(run) == before
 
 
-def test_a_failed_throw_leaves_no_mean_and_names_run_throw_and_view(vidtrack_cli, tmp_path):
-    run = synth(vidtrack_cli, tmp_path / "run", "--throws", "2", "--flight-s", "0.15")
-    assert fit(vidtrack_cli, run, "-q").returncode == 0
-    assert (run / "vidtrack" / "fit.json").is_file()
+def test_a_failed_throw_leaves_no_mean_and_names_run_throw_and_view(vidtrack_cli, tmp_path,
+                                                                   replicate_run):
+    # the module's fitted run of two throws, copied with its outputs
+    run = shutil.copytree(replicate_run[0], tmp_path / "run")
+    for name in ("fit.json", "report.md", "report.html"):
+        assert (run / "vidtrack" / name).is_file(), name
     top = run / "throws" / "02" / "top.avi"
     top.write_bytes(top.read_bytes()[:top.stat().st_size // 2])
     res = fit(vidtrack_cli, run)

@@ -35,12 +35,16 @@ def synth(out, *options):
 @pytest.mark.slow
 def test_report_fits_every_run_and_analyses_the_table(vidtrack_cli, tmp_path):
     exp = tmp_path / "exp"
+    # the motion blur averaged over 2 renders a frame, not 8 (a quarter of the rendering;
+    # measured on run 01: k1..k4 within 0.1 % of truth either way, the tolerances below
+    # being 3 and 5 %): what is checked here is that the report fits every run and
+    # analyses the table, the tracker's accuracy under blur has tests of its own
     for i, (a, b) in enumerate(DESIGN, start=1):
         k = ",".join(f"{v:.6f}" for v in k_of(a, b))
         synth(exp / "runs" / f"{i:02d}", "--size", "300x140", "--top-size", "300x90",
               "--straw-length-m", "0.25", "--straw-diameter-m", "0.025", "--flight-s", "0.25",
               "--noise", "1.0", "--k", k, "--n-rpm", str(550 + 100 * a),
-              "--blade-angle-deg", str(5 * b), "--seed", str(i))
+              "--blade-angle-deg", str(5 * b), "--seed", str(i), "--exposure-samples", "2")
     (exp / "experiment.toml").write_text(
         'schema = 1\ndesign = "ccd"\nresponses = ["k1", "k2", "k3", "k4"]\nruns = "runs/*"\n'
         '[factors.A]\nname = "n_rpm"\ncentre = 550\nstep = 100\n'

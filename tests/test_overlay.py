@@ -36,6 +36,15 @@ def copy_run(dst):
     return dst
 
 
+def fitted_copy(drawn, dst):
+    """run42 copied with the module's fit of it (``drawn``'s vidtrack/ without its
+    overlays): a fit of the copy reuses its stages."""
+    run = copy_run(dst)
+    shutil.copytree(drawn[0] / "vidtrack", run / "vidtrack",
+                    ignore=shutil.ignore_patterns("overlay_*"))
+    return run
+
+
 def digests(folder):
     return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
             for p in sorted(Path(folder).rglob("*")) if p.is_file()}
@@ -112,8 +121,8 @@ def test_marker_at_tracked_pixel_in_flag_colour(drawn):
     assert 0 in colours and len(colours) >= 2         # unflagged and flagged frames seen
 
 
-def test_options_every_scale_range(tmp_path, vidtrack_cli):
-    run = copy_run(tmp_path / "run")
+def test_options_every_scale_range(drawn, tmp_path, vidtrack_cli):
+    run = fitted_copy(drawn, tmp_path / "run")
     assert vidtrack_cli("fit", run).returncode == 0
     res = vidtrack_cli("overlay", run, "--view", "top", "--every", "4", "--scale", "0.5",
                        "--range", "100:201")
@@ -290,8 +299,8 @@ def test_overlay_is_h264_mp4_a_browser_plays(drawn):
         cap.release()
 
 
-def test_odd_size_padded_to_even(tmp_path, vidtrack_cli):
-    run = copy_run(tmp_path / "run")
+def test_odd_size_padded_to_even(drawn, tmp_path, vidtrack_cli):
+    run = fitted_copy(drawn, tmp_path / "run")
     assert vidtrack_cli("fit", run, "-q").returncode == 0
     res = vidtrack_cli("overlay", run, "--view", "top", "--every", "20", "--scale", "0.37")
     assert res.returncode == 0, res.stderr

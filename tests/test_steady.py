@@ -154,14 +154,23 @@ def _within(tr, tab, px=0.5):
     return int(np.count_nonzero(np.hypot(du - np.median(du), dv - np.median(dv)) <= px))
 
 
+def _fitted_track(run, view):
+    """The track ``vidtrack fit`` made of ``view`` (its tracks.h5): the tracker with the
+    settings of :func:`vidtrack.track.tracker.track` (the scene sets none)."""
+    from vidtrack.run.tracks_file import read_tracks
+
+    return read_tracks(run / "vidtrack" / "tracks.h5").tracks[view]
+
+
 def test_without_steadying_the_shake_would_be_in_the_track(shaken, monkeypatch):
     # the control: with the look switched off, the same footage is tracked as shot:
     # the straw is lost or flagged in most frames (23 of 372 unflagged), and what is
-    # measured carries the camera's motion
+    # measured carries the camera's motion (steadied: the module's fit of the footage)
     run, truth, _ = shaken
     tab = _truth(truth, "front")
+    steadied = _fitted_track(run, "front")
+    assert any(n.startswith("camera: shakes") for n in steadied.notes), steadied.notes
     with open_source(run / "front.avi", fps=1200) as src:
-        steadied = track(src, view="front")
         monkeypatch.setattr(steady, "SHAKE_PX", float("inf"))
         shot = track(src, view="front")
     assert not any(n.startswith("camera") for n in shot.notes)
@@ -239,15 +248,19 @@ def test_a_scene_moving_as_a_whole_is_not_a_shake():
     assert note.startswith("camera: the scene moves as a whole"), note
 
 
-def test_footage_too_long_to_hold_is_steadied_alike(shaken, monkeypatch):
+def test_footage_too_long_to_hold_is_steadied_alike(shaken_flight, monkeypatch):
     # the flight tracker holds footage of up to 96 MB; longer footage is decoded twice
     # (the detection, then the object's frames), each frame moved back as it comes: the
-    # same track either way
+    # same track either way (held: the module's fit of the footage with the flight
+    # tracker, whose footage is held)
     from vidtrack.track import flight
 
-    run, _, _ = shaken
+    run, _, _ = shaken_flight
+    held = _fitted_track(run, "front")
+    assert any(n.startswith("camera: shakes") for n in held.notes), held.notes
     with open_source(run / "front.avi", fps=1200) as src:
-        held = track(src, view="front", engine="flight")
+        frame_bytes = int(np.prod(src.shape)) * np.dtype(src.dtype).itemsize
+        assert len(src) * frame_bytes <= flight.HOLD_BYTES          # held, not streamed
         monkeypatch.setattr(flight, "HOLD_BYTES", 0)
         streamed = track(src, view="front", engine="flight")
     assert any(n.startswith("camera: shakes") for n in streamed.notes), streamed.notes
