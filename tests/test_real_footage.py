@@ -74,8 +74,12 @@ def test_diabolo_glider_followed_never_the_student(diabolo, hint):
           f"without that median {np.median(dist_def[ok]):.2f} px, largest "
           f"{dist_def[ok].max():.1f} px")
     assert ok[flight].mean() >= 0.90                      # 98 % measured
+    # never the student (300+ px away): no unflagged point 20 px from the authors', and
+    # no point at all, flagged ones included (a frame off the path, the glider blurred
+    # into the string, is flagged there), 100 px from them
     measured = np.isfinite(dist)
-    assert np.all(dist[measured] < 20.0)                  # never the student (300+ px)
+    assert np.all(dist[ok] < 20.0)
+    assert np.all(dist[measured] < 100.0)
     # the authors' point is a dark spot on the glider, and drifts off it (the next
     # test); the silhouette's centre lies about 4 px from it (-2.0, +3.3 px median);
     # with that offset taken out, about 2.5 px

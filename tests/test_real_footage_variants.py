@@ -171,7 +171,9 @@ def test_diabolo_smaller_or_flatter_never_the_student(diabolo, change, tmp_path)
           f"{np.median(to_ref[ok]):.2f} px")
     assert ok[1:].mean() >= 0.9
     measured = np.isfinite(to_ref)
-    assert np.all(to_ref[measured] < 20.0)          # never the student (300+ px)
+    # never the student (300+ px away): unflagged within 20 px of the authors' points,
+    # flagged ones (off the path) within 100
+    assert np.all(to_ref[ok] < 20.0) and np.all(to_ref[measured] < 100.0)
     assert np.median(dist[both]) <= 1.0 and np.percentile(dist[both], 95) <= 3.0
     assert np.median(to_ref[ok]) <= 5.0
 
