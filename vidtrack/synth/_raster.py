@@ -130,32 +130,34 @@ def _segment_offset(pu, pv, a, b):
     return qu, qv
 
 
-def _segment_distance(pu, pv, a, b):
-    """Distance of points (pu, pv) to the segment a-b (arrays broadcast)."""
-    return np.hypot(*_segment_offset(pu, pv, a, b))
-
-
-#: Relative margin on squared distances beyond which ``hypot(qu, qv)`` and
-#: ``sqrt(qu^2 + qv^2)`` (a few ulps apart) are on the same side of a threshold.
+#: Relative margin beyond which ``hypot(qu, qv)`` and ``sqrt(qu^2 + qv^2)`` (a few ulps
+#: apart) are on the same side of a threshold.
 _ROUNDING = 1e-9
 
 
-def _inside(pu, pv, a, b, r):
-    """``_segment_distance(pu, pv, a, b) <= r``, the same booleans, faster.
+def _segment_distance(pu, pv, a, b, near=()):
+    """Distance of points (pu, pv) to the segment a-b (arrays broadcast), on the same side
+    of each threshold in ``near`` as ``np.hypot`` puts it.
 
-    ``np.hypot`` costs ten times a multiplication: it is called only for the points whose
-    squared distance is within :data:`_ROUNDING` of ``r^2``.
+    ``np.hypot`` costs ten times a multiplication: the distance is ``sqrt(qu^2 + qv^2)``,
+    and ``hypot``'s only where that lies within :data:`_ROUNDING` of a threshold, where the
+    two may round to either side of it.
     """
     qu, qv = _segment_offset(pu, pv, a, b)
-    d2 = qu * qu + qv * qv
-    r2 = r * r
-    tol = _ROUNDING * r2 + 1e-300
-    inside = d2 <= r2 - tol
-    unsure = np.abs(d2 - r2) <= tol
-    if unsure.any():
+    d = np.sqrt(qu * qu + qv * qv)
+    unsure = None
+    for t in near:
+        hit = np.abs(d - t) <= _ROUNDING * (abs(t) + 1.0)
+        unsure = hit if unsure is None else unsure | hit
+    if unsure is not None and unsure.any():
         qu, qv = np.broadcast_arrays(qu, qv)
-        inside[unsure] = np.hypot(qu[unsure], qv[unsure]) <= r
-    return inside
+        d[unsure] = np.hypot(qu[unsure], qv[unsure])
+    return d
+
+
+def _inside(pu, pv, a, b, r):
+    """The points (pu, pv) within ``r`` of the segment a-b: ``np.hypot``'s verdict."""
+    return _segment_distance(pu, pv, a, b, near=(r,)) <= r
 
 
 @functools.lru_cache(maxsize=8)
@@ -366,14 +368,8 @@ def capsule_coverage(capsule, roi, *, supersample=16):
     cols = np.arange(roi.c0, roi.c1, dtype=np.float64)[None, :]
     r = float(capsule.radius_px)
     ax, ay = capsule.a_px
-    # d = _segment_distance(cols, rows, ...), from sqrt(qu^2 + qv^2) but for the pixels
-    # where it might not round to the same side of a threshold as hypot
-    qu, qv = _segment_offset(cols, rows, capsule.a_px, capsule.b_px)
-    d = np.sqrt(qu * qu + qv * qv)
-    unsure = np.abs(np.abs(d - r) - _HALF_DIAGONAL) <= _ROUNDING * (r + 1.0)
-    if unsure.any():
-        qu, qv = np.broadcast_arrays(qu, qv)
-        d[unsure] = np.hypot(qu[unsure], qv[unsure])
+    d = _segment_distance(cols, rows, capsule.a_px, capsule.b_px,
+                          near=(r - _HALF_DIAGONAL, r + _HALF_DIAGONAL))
     out[d <= r - _HALF_DIAGONAL] = 1.0
     edge = np.abs(d - r) < _HALF_DIAGONAL
     if not np.any(edge):
