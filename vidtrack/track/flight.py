@@ -110,9 +110,8 @@ def _background(source, held, settings):
     n = len(held) if held is not None else len(source)
     if n < 3:
         raise TrackError(f"the background needs at least 3 frames, the footage has {n}")
-    get = held.__getitem__ if held is not None else source.__getitem__
     samples = settings.background_samples
-    idx, frames, pairs = gather_samples(get, n, samples=samples)
+    idx, frames, pairs = gather_samples(_getter(source, held, None), n, samples=samples)
     background = estimate_background(frames, pairs=pairs, frames=idx)
     steady, note = Steadier.look(frames, idx, background.image,
                                  agree_share=settings.camera_agree_share)
@@ -121,10 +120,18 @@ def _background(source, held, settings):
     if held is not None:
         for i, frame in enumerate(held):
             held[i] = steady.warp(i, frame)
-    else:
-        get = lambda i: steady.warp(i, source[i])  # noqa: E731
-    idx, frames, pairs = gather_samples(get, n, samples=samples)
+    idx, frames, pairs = gather_samples(_getter(source, held, steady), n, samples=samples)
     return estimate_background(frames, pairs=pairs, frames=idx), steady, note, idx
+
+
+def _getter(source, held, steady):
+    """Frame position -> its frame: from ``held`` (footage held whole, already steadied),
+    else decoded from ``source`` and moved back by ``steady`` (where not None)."""
+    if held is not None:
+        return held.__getitem__
+    if steady is not None:
+        return lambda i: steady.warp(i, source[i])
+    return source.__getitem__
 
 
 def _disc_reach(shape, settings):
@@ -327,12 +334,7 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
         # the object's there; taken again from the samples that show the wall, and the
         # view tracked again where that moves enough of the object's area; the chain
         # then holds the object where it stood, which places it better the next time)
-        if held is not None:
-            get = held.__getitem__
-        elif steady is not None:
-            get = lambda i: steady.warp(i, source[i])  # noqa: E731
-        else:
-            get = source.__getitem__
+        get = _getter(source, held, steady)
         first = background
         for again in range(1, AGAIN_MAX + 1):
             redone, taken, no_wall = without_object(
@@ -342,20 +344,19 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
             area = np.pi * 4.0 * float(shape.major) * max(float(shape.minor), MINOR_FLOOR_PX)
             if moved.sum() < settings.stood_moved_share * area:
                 break
+            said = (f"background: the median held the object where it stood still (its "
+                    f"ghost once it left); taken again without it there "
+                    f"({int(taken.sum())} px)")
             try:
                 result = run(redone)
             except TrackError as err:
                 # (the pass before stands: a second look that finds nothing or two
                 # objects does not undo the object the first one found)
-                again_note = (f"background: the median held the object where it stood "
-                              f"still; taken again without it there ({int(taken.sum())} "
-                              f"px), the view tracked again found no object "
+                again_note = (f"{said}, the view tracked again found no object "
                               f"({str(err).removeprefix(name + ': ')}): the pass before "
                               f"is kept")
                 break
-            again_note = (f"background: the median held the object where it stood still "
-                          f"(its ghost once it left); taken again without it there "
-                          f"({int(taken.sum())} px) and the view tracked again "
+            again_note = (f"{said} and the view tracked again "
                           f"({again} time{'s' if again > 1 else ''})")
             background = redone
             detector, detections, tracklets, chain, others, shape = result
