@@ -71,6 +71,7 @@ class Chain:
         self.weight = np.zeros(n)
         self.level = np.full(n, np.nan)
         self.shadow = np.zeros(n, bool)
+        self.shadow_seen = np.zeros(n, bool)
         self.major = np.full(n, np.nan)
         self.minor = np.full(n, np.nan)
         for i in np.flatnonzero(pick >= 0):
@@ -85,6 +86,7 @@ class Chain:
         self.weight[i] = d["weight"]
         self.level[i] = d["level"]
         self.shadow[i] = d["shadow"]
+        self.shadow_seen[i] = d["shadow"] and d["textured"]
         half = 0.5 * (float(d["muu"]) + float(d["mvv"]))
         root = float(np.hypot(0.5 * (float(d["muu"]) - float(d["mvv"])), float(d["muv"])))
         self.major[i] = np.sqrt(max(half + root, 0.0))

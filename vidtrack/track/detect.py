@@ -56,7 +56,8 @@ MAX_DETECTIONS = 128
 #: central moments (px^2), contrast (grey levels, signed: + brighter than the
 #: background), the share of the weight brighter than the background, the 10th
 #: percentile of frame / background, the texture correlation, whether it is
-#: shadow-like, whether it touches the frame's border, its contrast (the 90th percentile
+#: shadow-like, whether the background under it has texture (then a shadow-like
+#: detection has shown the texture kept, not only a dimming), whether it touches the frame's border, its contrast (the 90th percentile
 #: of its |difference|), its own grey level (NaN for an object of two polarities),
 #: whether it is of two polarities, and its body's level (of the polarity most of its
 #: pixels beyond ``k_grow`` show) where that lies on one side of the background under
@@ -65,7 +66,7 @@ DETECTION_DTYPE = np.dtype([("u", "f8"), ("v", "f8"), ("weight", "f8"), ("area",
                             ("muu", "f8"), ("mvv", "f8"), ("muv", "f8"),
                             ("contrast", "f4"), ("bright_share", "f4"),
                             ("ratio_p10", "f4"), ("texture_r", "f4"),
-                            ("snr", "f4"), ("shadow", "?"), ("border", "?"),
+                            ("snr", "f4"), ("shadow", "?"), ("textured", "?"), ("border", "?"),
                             ("level", "f4"), ("obj_level", "f4"), ("mixed", "?"),
                             ("body_level", "f4")])
 
@@ -82,6 +83,14 @@ TEXTURE_SIGMAS = 3.0
 #: An object whose pixels of the other polarity (beyond ``k_grow``) hold at most this
 #: share of its summed contrast has one grey level (a highlight holds more).
 ONE_LEVEL_SHARE = 0.05
+
+#: An object of two polarities against the wall is of one level where the pixels at
+#: least half its contrast from the wall span an interquartile range of at most this
+#: share of its contrast (the 90th percentile of its ``|difference|``) ...
+ONE_LEVEL_IQR = 0.25
+
+#: ... over at least this many pixels.
+FLAT_MIN_PIXELS = 9
 
 #: The per-pixel shadow test looks at the square of this side round each pixel (px).
 SHADOW_WINDOW_PX = 5
@@ -415,8 +424,10 @@ class Detector:
         grown = cv2.dilate(own, _KERNEL3)
         ys, xs = nonzero_2d(grown != 0)
         li = grown[ys, xs].astype(np.int64) - 1
-        # (the component's own pixels, not the grown ring: the photometric test's)
+        # (the component's own pixels, not the grown ring: the photometric test's; and
+        # those a pixel inside its edge)
         core = own[ys, xs] > 0
+        inside = (cv2.erode(own, _KERNEL3) == own)[ys, xs] & core
         ys += r0
         xs += c0
         m = keep.size
@@ -446,6 +457,26 @@ class Detector:
         more_bright = np.bincount(li, d > gl, m) >= np.bincount(li, d < -gl, m)
         body = np.where(one_level, sign, np.where(more_bright, 1.0, -1.0))
         obj = body * _percentile_by_label(body[li] * fv, li, m, 0.9)
+        # (an object of one grey level L over a wall with patches both lighter and
+        # darker than it is of two polarities against the wall, yet where it stands
+        # clear of the wall (a pixel inside its edge, where it covers the pixel whole)
+        # its pixels are of one level whatever the wall under them:
+        # their interquartile range within ONE_LEVEL_IQR of its contrast, and its pixels
+        # that differ from the wall the other way than L does (a highlight on a dark
+        # ball; a toy's tones) hold at most ONE_LEVEL_SHARE of its summed contrast)
+        clear = inside & (a >= 0.5 * level[li])
+        q25 = _percentile_by_label(fv[clear], li[clear], m, 0.25)
+        q50 = _percentile_by_label(fv[clear], li[clear], m, 0.5)
+        q75 = _percentile_by_label(fv[clear], li[clear], m, 0.75)
+        span = q50[li] - bgv
+        against = (core & (np.sign(span) * d < -gl)
+                   & (np.abs(span) > CLEAR_SIGMAS * self.sigma[ys, xs]))
+        flat = (~one_level & (np.bincount(li[clear], minlength=m) >= FLAT_MIN_PIXELS)
+                & (q75 - q25 <= ONE_LEVEL_IQR * level)
+                & (np.bincount(li, np.where(against, a, 0.0), m)
+                   <= ONE_LEVEL_SHARE * np.bincount(li, np.where(core, a, 0.0), m)))
+        obj = np.where(flat, q50, obj)
+        one_level |= flat
         mixed = ~one_level
         # (a body's level has one side of the background under nearly all of it, or the
         # other polarity is no highlight: a grey object over a light wall and a dark
@@ -506,6 +537,7 @@ class Detector:
         out["contrast"], out["bright_share"] = contrast, bright
         out["ratio_p10"], out["texture_r"] = ratio_p10, texture_r
         out["snr"], out["shadow"], out["border"] = snr, shadow, border
+        out["textured"] = textured
         out["level"], out["obj_level"], out["mixed"] = level, obj, mixed
         out["body_level"] = body_level
         out = out[good]

@@ -336,8 +336,11 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
             reasons["pre-release"][idx[idx < release]] = True
         notes.append(f"release: {note}")
     if chain.shadow[idx].mean() <= MAJORITY:
-        flags[idx[chain.shadow[idx]]] |= APPEARANCE
-        reasons["shadow"][idx[chain.shadow[idx]]] = True
+        # (a frame shows itself a shadow's where the wall's texture is seen kept under
+        # it: over a plain wall, a dark object dims it alike)
+        seen = idx[chain.shadow_seen[idx]]
+        flags[seen] |= APPEARANCE
+        reasons["shadow"][seen] = True
     if astray.any() and not astray.all():
         flags[idx[astray]] = LOST
         for hit in reasons.values():

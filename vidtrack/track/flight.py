@@ -35,7 +35,7 @@ from vidtrack.track.flag import REASON_COLUMN, bridge_gaps, judge, reason_codes
 from vidtrack.track.joined import follow_back
 from vidtrack.track.link import link
 from vidtrack.track.measure import (BAR_COLUMNS, bar_moments, chain_shape, has_highlight,
-                                    is_rod, measure_frame)
+                                    is_rod, measure_frame, fit_shape, SHAPE_FRAMES)
 from vidtrack.track.rod import END_COLUMNS
 from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
@@ -186,8 +186,11 @@ def _measure(source, held, detector, detections, chain, shape, settings, cancel,
     residual = np.full(n, np.nan)
     bars = np.full((n, len(BAR_COLUMNS)), np.nan)
     wanted = set(int(i) for i in chain.frames)
-    highlight = has_highlight([detections[i][chain.pick[i]] for i in chain.frames],
-                              settings)
+    dets = [detections[i][chain.pick[i]] for i in chain.frames]
+    highlight = has_highlight(dets, settings)
+    if not highlight:
+        shape = _model_shape(_getter(source, held, steady), detections, chain, shape,
+                             detector, settings)
     frames = held if held is not None else _steadied(_frames(source, cancel), steady)
     for i, frame in enumerate(frames):
         if i not in wanted:
@@ -207,6 +210,26 @@ def _measure(source, held, detector, detections, chain, shape, settings, cancel,
         if i >= chain.frames[-1]:
             break
     return moments, residual, bars
+
+
+def _model_shape(get, detections, chain, shape, detector, settings):
+    """The object's shape measured by its model (:func:`vidtrack.track.measure.fit_shape`)
+    over up to :data:`~vidtrack.track.measure.SHAPE_FRAMES` of the frames its flight
+    explains (all its frames where none is marked) where it is seen of one level;
+    ``shape`` is updated in place."""
+    idx = np.flatnonzero(chain.explained)
+    if idx.size == 0:
+        idx = chain.frames
+    idx = np.array([i for i in idx if not detections[i][chain.pick[i]]["mixed"]], int)
+    if idx.size == 0:
+        return shape
+    take = idx[np.unique(np.linspace(0, idx.size - 1, min(SHAPE_FRAMES, idx.size))
+                         .round().astype(int))]
+    found = fit_shape([get(int(i)) for i in take],
+                      [detections[i][chain.pick[i]] for i in take], shape, detector.bg,
+                      detector.sigma, settings, shadow_test=detector.shadow_test)
+    shape.major, shape.minor = found.major, found.minor
+    return shape
 
 
 def _frames_before(source, steady, window):

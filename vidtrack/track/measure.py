@@ -24,8 +24,8 @@ from vidtrack.track.ellipse import fit_ellipse
 from vidtrack.track.rod import fit_rod
 from vidtrack.track.path import robust_scale
 
-__all__ = ["Shape", "measure_frame", "rod_at", "chain_shape", "has_highlight",
-           "BAR_COLUMNS", "bar_moments"]
+__all__ = ["Shape", "measure_frame", "fit_shape", "SHAPE_FRAMES", "rod_at", "chain_shape",
+           "has_highlight", "BAR_COLUMNS", "bar_moments"]
 
 #: The per-frame bar of a rod (:func:`measure_frame`): half length, half width (px),
 #: coverage, misfit, angle (rad), blurs across and along (px).
@@ -117,15 +117,9 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
         :func:`vidtrack.track.rod.fit_rod`), else None.
     """
     k = settings.kernel_sigmas
-    # the kernel's spreads: the shape's, the minor one at least a pixel (blur, sampling)
-    a = max(shape.major, 0.5)
-    b = max(shape.minor, 0.5)
-    a, b = np.hypot(a, 0.5), np.hypot(b, 0.5)
-    reach = int(np.ceil(2.0 * k * a)) + 2
     cu, cv = float(det["u"]), float(det["v"])
-    (r0, c0), bg, sg, d, fg, shade, (n_lab, lab) = _crop(
-        frame, background, sigma, (cu, cv), reach, max(2.0 * a, 3.0), settings,
-        shadow_test)
+    (a, b), ((r0, c0), bg, sg, d, fg, shade, (n_lab, lab)) = _object_crop(
+        frame, background, sigma, (cu, cv), shape, settings, shadow_test)
     ys, xs = nonzero_2d(cv2.dilate(fg, _KERNEL3) != 0)
     if ys.size == 0:
         return cu, cv, 0.0, np.nan, np.nan, np.nan, np.nan, None
@@ -183,12 +177,13 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
         # its centre from the model fitted to the pixels in its kernel (another
         # object's apart from it left out), robustly: a rod's bar, a compact object's
         # ellipse; the mean shift's where the fit fails or does not explain it
-        cover = _cover(d, bg, sg, det)
+        cover, told = _cover(d, bg, sg, det)
         rod = is_rod(shape)
         if inner is not None:
             cover = np.where(np.isfinite(inner), inner, cover)
-        px, py, pc, measured = _kernel_pixels(cover, fg, n_lab, lab, (r0, c0),
-                                              (cu, cv, theta), (a, b), k, inner)
+            told = np.where(np.isfinite(inner), 1.0, told)
+        px, py, pc, measured, pt = _kernel_pixels(cover, fg, n_lab, lab, (r0, c0),
+                                                  (cu, cv, theta), (a, b), k, inner, told)
         if rod:
             fit = fit_rod(px, py, pc, (cu, cv, theta, np.sqrt(3.0) * shape.major,
                                        np.sqrt(3.0) * max(shape.minor, 0.3)),
@@ -197,7 +192,8 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
         else:
             fit = fit_ellipse(px, py, pc, (cu, cv, theta), (shape.major, shape.minor),
                               turn=shape.major > ELONGATED * shape.minor,
-                              max_misfit=settings.model_max_misfit)
+                              max_misfit=settings.model_max_misfit, weight=pt,
+                              noise=_noise(sg, det))
         if fit is not None:
             cu, cv, fitted, misfit = fit
             if rod and _like(fitted, shape):
@@ -210,6 +206,50 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     mvv = float(np.sum(wi * ev * ev) / sw)
     muv = float(np.sum(wi * eu * ev) / sw)
     return cu, cv, sw, muu, mvv, muv, residual, bar
+
+
+#: The object's shape is measured by its model in at most this many of its chain's
+#: frames (spread evenly over those its flight explains) ...
+SHAPE_FRAMES = 15
+
+#: ... and taken where at least this share of them (and at least 3) are explained by
+#: it. Measured (of 15): the synthetic balls, camouflaged or not, 13-15; the balltoss
+#: ball 15; the badminton shuttlecocks 8 and 9, the bear with its balloon 6, the
+#: launcher's small ball and the diabolo 0 (measured by the detections' spreads).
+SHAPE_EXPLAINED = 2.0 / 3.0
+
+
+def fit_shape(frames, dets, shape, background, sigma, settings, shadow_test=None):
+    """The object's :class:`Shape` measured by its model: the median spreads of the
+    ellipse fitted with its spreads free (:func:`vidtrack.track.ellipse.fit_ellipse`)
+    to ``frames`` (grey) at their detections ``dets`` (of one level, each pixel
+    weighed by how well it tells its coverage). A detection's spreads are short of the
+    object's where part of it shows the wall's own level (camouflage); the fit leaves
+    those pixels out. ``shape`` (the detections' median) where too few frames are
+    explained by an ellipse (:data:`SHAPE_EXPLAINED`: a shuttlecock, a bear) or the
+    object is a rod."""
+    if is_rod(shape):
+        return shape
+    fitted = []
+    for frame, det in zip(frames, dets):
+        if not np.isfinite(det["obj_level"]) or det["mixed"]:
+            continue
+        cu, cv = float(det["u"]), float(det["v"])
+        (a, b), ((r0, c0), bg, sg, d, fg, _shade, (n_lab, lab)) = _object_crop(
+            frame, background, sigma, (cu, cv), shape, settings, shadow_test)
+        cover, told = _cover(d, bg, sg, det)
+        theta = 0.5 * np.arctan2(2.0 * float(det["muv"]), float(det["muu"] - det["mvv"]))
+        px, py, pc, _, pt = _kernel_pixels(cover, fg, n_lab, lab, (r0, c0), (cu, cv, theta),
+                                           (a, b), settings.kernel_sigmas, None, told)
+        fit = fit_ellipse(px, py, pc, (cu, cv, theta), (shape.major, shape.minor),
+                          turn=True, max_misfit=settings.model_max_misfit, weight=pt,
+                          free_spreads=True, noise=_noise(sg, det))
+        if fit is not None:
+            fitted.append(sorted(fit[2][-2:], reverse=True))
+    if len(fitted) < max(3, SHAPE_EXPLAINED * len(frames)):
+        return shape
+    major, minor = np.median(np.asarray(fitted), axis=0)
+    return Shape(major, minor)
 
 
 #: A rod's bar fitted to a frame is of the object's own shape where its spreads along
@@ -271,18 +311,24 @@ def rod_at(frame, background, sigma, det, pose, bar, shape, settings, shadow_tes
     (float, float, numpy.ndarray, float) or None
         As :func:`vidtrack.track.rod.fit_rod`.
     """
-    k = settings.kernel_sigmas
-    a = np.hypot(max(shape.major, 0.5), 0.5)
-    b = np.hypot(max(shape.minor, 0.5), 0.5)
     cu, cv, theta = pose
-    (r0, c0), bg, sg, d, fg, _shade, (n_lab, lab) = _crop(
-        frame, background, sigma, (cu, cv), int(np.ceil(2.0 * k * a)) + 2,
-        max(2.0 * a, 3.0), settings, shadow_test)
-    cover = _cover(d, bg, sg, det)
-    px, py, pc, _ = _kernel_pixels(cover, fg, n_lab, lab, (r0, c0), (cu, cv, theta),
-                                   (a, b), k, None)
+    (a, b), ((r0, c0), bg, sg, d, fg, _shade, (n_lab, lab)) = _object_crop(
+        frame, background, sigma, (cu, cv), shape, settings, shadow_test)
+    cover, _ = _cover(d, bg, sg, det)
+    px, py, pc, _, _ = _kernel_pixels(cover, fg, n_lab, lab, (r0, c0), (cu, cv, theta),
+                                      (a, b), settings.kernel_sigmas, None)
     return fit_rod(px, py, pc, (cu, cv, theta, bar[3], bar[4]), profile=bar[4:],
                    cap_px=settings.bar_cap_px, hold=HELD)
+
+
+def _object_crop(frame, background, sigma, centre, shape, settings, shadow_test):
+    """The kernel's spreads ``(a, b)`` (the shape's, each at least a pixel: blur,
+    sampling) and :func:`_crop` round ``centre``, reaching twice the kernel along."""
+    a = np.hypot(max(shape.major, 0.5), 0.5)
+    b = np.hypot(max(shape.minor, 0.5), 0.5)
+    reach = int(np.ceil(2.0 * settings.kernel_sigmas * a)) + 2
+    return (a, b), _crop(frame, background, sigma, centre, reach, max(2.0 * a, 3.0),
+                         settings, shadow_test)
 
 
 def _crop(frame, background, sigma, centre, reach, near_px, settings, shadow_test):
@@ -322,15 +368,29 @@ def _crop(frame, background, sigma, centre, reach, near_px, settings, shadow_tes
     return (r0, c0), bg, sg, d, fg, shade, (n_lab, lab)
 
 
+def _noise(sg, det):
+    """A pixel's noise (the median of ``sg``, the crop's) over the object's contrast (the
+    detection's ``level``)."""
+    level = float(det["level"]) if np.isfinite(det["level"]) and det["level"] > 0 else 1.0
+    return float(np.median(sg)) / level
+
+
 def _cover(d, bg, sg, det):
     """Each pixel's coverage by the object: its difference from the background over the
     object's own contrast there (``obj_level``), or over the detection's ``level`` where
-    that contrast is within ``CLEAR_SIGMAS`` of the noise."""
+    that contrast is within ``CLEAR_SIGMAS`` of the noise (for an object of one level,
+    NaN there: it cannot tell); and how well it tells it, the object's contrast there
+    over its full contrast (the detection's ``level``), at most 1."""
     level = float(det["level"]) if np.isfinite(det["level"]) and det["level"] > 0 else 1.0
     span = float(det["obj_level"]) - bg
     clear = np.abs(span) > CLEAR_SIGMAS * sg
     sign = 1.0 if det["contrast"] >= 0 else -1.0
-    return np.where(clear, d / np.where(clear, span, 1.0), sign * d / level)
+    told = np.where(np.isfinite(span), np.minimum(np.abs(span) / level, 1.0), 1.0)
+    if np.isfinite(det["obj_level"]):
+        # (where the background is of the object's own level, a pixel cannot tell
+        # whether the object covers it: no data, not an uncovered pixel)
+        return np.where(clear, d / np.where(clear, span, 1.0), np.nan), told
+    return np.where(clear, d / np.where(clear, span, 1.0), sign * d / level), told
 
 
 def _highlight_interior(d, bg, grow, obj, ys, xs, w, core):
@@ -362,10 +422,11 @@ def _highlight_interior(d, bg, grow, obj, ys, xs, w, core):
     return out
 
 
-def _kernel_pixels(cover, fg, n_lab, lab, origin, pose, spreads, k, inner):
-    """The centres, ``cover`` and measured-or-filled of the crop's pixels within the
-    kernel at ``pose`` (another detection's pixels apart from the object's left out;
-    ``inner``: the filled-in cover of a highlight, NaN elsewhere, or None)."""
+def _kernel_pixels(cover, fg, n_lab, lab, origin, pose, spreads, k, inner, told=None):
+    """The centres, ``cover``, measured-or-filled and ``told`` (None if not given) of
+    the crop's pixels within the kernel at ``pose`` (another detection's pixels apart
+    from the object's left out; ``inner``: the filled-in cover of a highlight, NaN
+    elsewhere, or None)."""
     r0, c0 = origin
     cu, cv, theta = pose
     a, b = spreads
@@ -378,7 +439,7 @@ def _kernel_pixels(cover, fg, n_lab, lab, origin, pose, spreads, k, inner):
     if n_lab > 2:
         use &= (lab == 0) | (fg > 0)
     measured = None if inner is None else ~np.isfinite(inner[use])
-    return x[use], y[use], cover[use], measured
+    return x[use], y[use], cover[use], measured, None if told is None else told[use]
 
 
 def residual_outliers(residual, settings):
