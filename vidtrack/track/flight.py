@@ -36,7 +36,7 @@ from vidtrack.track.joined import follow_back
 from vidtrack.track.link import link
 from vidtrack.track.measure import (BAR_COLUMNS, bar_moments, chain_shape, has_highlight,
                                     is_rod, measure_frame, fit_shape, SHAPE_FRAMES)
-from vidtrack.track.rod import END_COLUMNS
+from vidtrack.track.rod import END_COLUMNS, MIN_LENGTH_PX
 from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
 
@@ -250,7 +250,10 @@ def _frames_before(source, steady, window):
 def rod_ends(u, v, half_length, angle):
     """A rod's two ends per frame (``(n, 4)``: end 1's u, v, end 2's u, v; px), from its
     centre and its bar's half length and angle, end 1 kept on the side it was on in the
-    frame before (the bar's angle is known up to a half turn); NaN without a bar."""
+    frame before (the bar's angle is known up to a half turn); NaN without a bar, and
+    where the bar fitted is shorter than :data:`~vidtrack.track.rod.MIN_LENGTH_PX` (a
+    rod nearly end on: its angle is not measured)."""
+    half_length = np.where(2.0 * half_length >= MIN_LENGTH_PX, half_length, np.nan)
     d = np.column_stack([np.cos(angle), np.sin(angle)]) * half_length[:, None]
     last = None
     for i in range(d.shape[0]):
@@ -419,7 +422,7 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     area = np.full(n, np.nan)
     angle = np.full(n, np.nan)
     length = np.full(n, np.nan)
-    contrast = []
+    levels = []
     for i in chain.frames:
         d = detections[i][chain.pick[i]]
         area[i] = moments[i, 0]
@@ -427,7 +430,11 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
         angle[i] = 0.5 * np.arctan2(2.0 * muv, muu - mvv)
         lam = 0.5 * (muu + mvv) + np.hypot(0.5 * (muu - mvv), muv)
         length[i] = np.sqrt(12.0 * max(lam, 0.0))
-        contrast.append(float(d["contrast"]))
+        # (its own grey level, as the straw_level of a Track is: its body's where it has
+        # a highlight; none for an object of several tones)
+        own = d["body_level"] if d["mixed"] else d["obj_level"]
+        if np.isfinite(own):
+            levels.append(float(own))
     reasons["blade"] = np.zeros(n, bool)
     if mask is not None:
         for i in chain.frames:
@@ -470,5 +477,5 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
                 release_t_s=None if rel_pos is None else float(times[rel_pos]),
                 fps=source.fps, frame_shape=tuple(source.shape),
                 noise_sigma=float(background.noise_sigma), k_sigma=float(settings.k_sigma),
-                straw_level=float(np.median(contrast)) if contrast else float("nan"),
+                straw_level=float(np.median(levels)) if levels else float("nan"),
                 scatter_px=float(scatter), notes=tuple(notes))
