@@ -84,9 +84,12 @@ TEXTURE_SIGMAS = 3.0
 #: share of its summed contrast has one grey level (a highlight holds more).
 ONE_LEVEL_SHARE = 0.05
 
-#: An object of two polarities against the wall is of one level where the pixels at
-#: least half its contrast from the wall span an interquartile range of at most this
-#: share of its contrast (the 90th percentile of its ``|difference|``) ...
+#: An object of two polarities against the wall is of one level where its pixels at
+#: least this share of its contrast (the 90th percentile of its ``|difference|``) from
+#: the wall (where it stands clear of it) ...
+CLEAR_SHARE = 0.5
+
+#: ... span an interquartile range of at most this share of its contrast ...
 ONE_LEVEL_IQR = 0.25
 
 #: ... over at least this many pixels.
@@ -464,7 +467,7 @@ class Detector:
         # their interquartile range within ONE_LEVEL_IQR of its contrast, and its pixels
         # that differ from the wall the other way than L does (a highlight on a dark
         # ball; a toy's tones) hold at most ONE_LEVEL_SHARE of its summed contrast)
-        clear = inside & (a >= 0.5 * level[li])
+        clear = inside & (a >= CLEAR_SHARE * level[li])
         q25 = _percentile_by_label(fv[clear], li[clear], m, 0.25)
         q50 = _percentile_by_label(fv[clear], li[clear], m, 0.5)
         q75 = _percentile_by_label(fv[clear], li[clear], m, 0.75)
