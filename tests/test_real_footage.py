@@ -354,6 +354,11 @@ def test_badminton_shuttlecock_followed_between_two_hits(real_footage, cam):
     assert np.all(np.hypot(du, dv)[measured] < 20.0)      # never a player or the crowd
     assert np.median(np.abs(across[ok])) <= 1.5
     assert np.percentile(np.abs(across[ok]), 95) <= 3.0
-    assert np.all((behind[ok] > 0.0) & (behind[ok] < 0.7))
-    # the footage's compression specks: the threshold was raised, and said so
-    assert any(n.startswith("threshold raised") for n in tr.notes)
+    # behind the cork and within the shuttlecock: its length here is its moments'
+    # (sqrt(12 x the variance along it)), for a cone 0.82 of the cork-to-skirt length, so
+    # the centroid of a cone (2/3 of the way from its tip) lies 0.82 of it behind
+    assert np.all((behind[ok] > 0.0) & (behind[ok] < 1.0))
+    # the footage's compression specks: the rules tracker raises its threshold and says
+    # so (the flight tracker keeps each frame's most significant detections instead)
+    if not tr.notes[0].startswith("tracker: flight"):
+        assert any(n.startswith("threshold raised") for n in tr.notes)

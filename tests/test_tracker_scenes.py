@@ -119,8 +119,9 @@ def test_a_shadow_attached_to_a_textured_toy_is_cut_off(tmp_path, darkness, blur
 
 
 def test_a_second_pass_that_fails_leaves_the_first_passs_track(tmp_path, monkeypatch):
-    """Where the second pass (without the shadow) cannot follow the object, the track is
-    the first pass's, measured with the shadow, and its notes say so."""
+    """Where the rules tracker's second pass (without the shadow) cannot follow the
+    object, the track is the first pass's, measured with the shadow, and its notes say
+    so (the flight tracker makes one pass)."""
     from vidtrack.track import _pass
 
     run = _pass.Pass.run
@@ -132,7 +133,7 @@ def test_a_second_pass_that_fails_leaves_the_first_passs_track(tmp_path, monkeyp
 
     monkeypatch.setattr(_pass.Pass, "run", run_or_fail)
     frames, path = _toy(np.random.default_rng(3), 70, darkness=0.25, blur_px=3.0)
-    tr = _track(tmp_path, frames)
+    tr = _track(tmp_path, frames, engine="rules")
     said = [x for x in tr.notes if x.startswith("shadow:")]
     assert len(said) == 1 and "measured with it" in said[0] and "lost without" in said[0]
     err = _errors(tr, path)

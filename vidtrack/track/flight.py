@@ -164,6 +164,26 @@ def _over(chain, shape, mask, settings):
     return idx[(d2 <= r * r).any(axis=1)]
 
 
+def _covers(mask, u, v, second):
+    """Whether the object at (``u``, ``v``) with second central moments ``second`` (muu,
+    mvv, muv; px^2) shares a pixel with ``mask``: the points of the uniform rectangle of
+    those moments, one pixel apart, are looked up."""
+    muu, mvv, muv = second
+    if not np.all(np.isfinite(second)):
+        muu = mvv = muv = 0.0
+    angle = 0.5 * np.arctan2(2.0 * muv, muu - mvv)
+    half = np.hypot(0.5 * (muu - mvv), muv)
+    length = np.sqrt(12.0 * max(0.5 * (muu + mvv) + half, 0.0))
+    width = np.sqrt(12.0 * max(0.5 * (muu + mvv) - half, 0.0))
+    s = np.linspace(-0.5, 0.5, int(np.ceil(length)) + 1)[:, None] * length
+    t = np.linspace(-0.5, 0.5, int(np.ceil(width)) + 1)[None, :] * width
+    c, n = np.cos(angle), np.sin(angle)
+    cols = np.rint(u + s * c - t * n).astype(int).ravel()
+    rows = np.rint(v + s * n + t * c).astype(int).ravel()
+    inside = (rows >= 0) & (rows < mask.shape[0]) & (cols >= 0) & (cols < mask.shape[1])
+    return bool(mask[rows[inside], cols[inside]].any())
+
+
 def _steadied(frames, steady):
     """``frames`` moved back by ``steady`` (unchanged where it is None)."""
     if steady is None:
@@ -179,9 +199,11 @@ def _measure(source, held, detector, detections, chain, shape, settings, cancel,
     the chain's positions are replaced; returns per frame position (weight, muu, mvv,
     muv), the residual share and the model's (half length, half width, coverage,
     misfit, angle, blurs; :data:`~vidtrack.track.measure.BAR_COLUMNS`) (NaN where the
-    chain has no detection or no model). Footage not held is decoded again for it, one
-    frame at a time."""
+    chain has no detection or no model), and the pixels the shadow test took for the
+    object's shadow (touching it; left out). Footage not held is decoded again for it,
+    one frame at a time."""
     n = len(detections)
+    shaded = np.zeros(n, int)
     moments = np.full((n, 4), np.nan)
     residual = np.full(n, np.nan)
     bars = np.full((n, len(BAR_COLUMNS)), np.nan)
@@ -199,7 +221,7 @@ def _measure(source, held, detector, detections, chain, shape, settings, cancel,
         if det["mixed"] and highlight:
             det = det.copy()
             det["obj_level"] = det["body_level"]
-        cu, cv, w, muu, mvv, muv, res, bar = measure_frame(
+        cu, cv, w, muu, mvv, muv, res, bar, shaded[i] = measure_frame(
             frame, detector.bg, detector.sigma, det, shape, settings,
             shadow_test=detector.shadow_test)
         chain.u[i], chain.v[i] = cu, cv
@@ -209,7 +231,7 @@ def _measure(source, held, detector, detections, chain, shape, settings, cancel,
             bars[i] = bar
         if i >= chain.frames[-1]:
             break
-    return moments, residual, bars
+    return moments, residual, bars, shaded
 
 
 def _model_shape(get, detections, chain, shape, detector, settings):
@@ -306,7 +328,8 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     target : (int, (float, float)), optional
         ``(file frame, (u_px, v_px))`` of the object.
     blade_region : numpy.ndarray or (float, float, float), optional
-        Where the blade sweeps: frames whose point lies there are flagged BLADE.
+        Where the blade sweeps: frames where the object shares a pixel with it are
+        flagged BLADE.
     cancel : threading.Event, optional
     what : str
         What the scene calls the object, for messages.
@@ -393,7 +416,7 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     rod = is_rod(shape)     # (before the measurement refines the shape's profile)
     # (a rod is followed back into what it rides where its release is looked for)
     follow = rod and view != "top"
-    moments, residual, bars = _measure(source, held, detector, detections, chain, shape,
+    moments, residual, bars, shaded = _measure(source, held, detector, detections, chain, shape,
                                        settings, cancel, steady)
     get = (held.__getitem__ if held is not None
            else _frames_before(source, steady, settings.release_window))
@@ -415,6 +438,12 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     if followed.size:
         notes.append(f"{followed.size} frames before the flight followed by the rod's model into "
                      f"what it is joined to")
+    has = shaded[chain.frames] > 0
+    if has.any():
+        notes.append(f"shadow: pixels touching the object taken for its shadow (darker "
+                     f"by a smooth factor, the wall's texture kept) and left out in "
+                     f"{np.count_nonzero(has)} of its {has.size} frames (median "
+                     f"{np.median(shaded[chain.frames][has]):.0f} px)")
     if bridged:
         notes.append(f"{bridged} frames without a detection inside the object's chain: "
                      f"placed on the path through the clean frames either side "
@@ -438,8 +467,7 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     reasons["blade"] = np.zeros(n, bool)
     if mask is not None:
         for i in chain.frames:
-            r, c = int(round(v[i])), int(round(u[i]))
-            if 0 <= r < mask.shape[0] and 0 <= c < mask.shape[1] and mask[r, c]:
+            if np.isfinite(u[i]) and _covers(mask, u[i], v[i], moments[i, 1:]):
                 flags[i] |= BLADE
                 reasons["blade"][i] = True
     times = np.asarray(source.times_s)[:n]

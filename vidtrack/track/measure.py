@@ -109,20 +109,23 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
 
     Returns
     -------
-    (u, v, weight, muu, mvv, muv, residual, bar)
+    (u, v, weight, muu, mvv, muv, residual, bar, shaded)
         The centroid (px), the weight inside the kernel, its second central moments
-        (px^2), the residual share, and for an object measured by its model (a rod's
-        bar, a compact object's ellipse), the model's ``(half length, half width,
+        (px^2), the residual share, for an object measured by its model (a rod's
+        bar, a compact object's ellipse) the model's ``(half length, half width,
         coverage, misfit, angle)`` (px, px, 1, 1, rad from +u towards +v; see
-        :func:`vidtrack.track.rod.fit_rod`), else None.
+        :func:`vidtrack.track.rod.fit_rod`), else None, and how many pixels touching
+        the object the shadow test took for its shadow (left out).
     """
     k = settings.kernel_sigmas
     cu, cv = float(det["u"]), float(det["v"])
     (a, b), ((r0, c0), bg, sg, d, fg, shade, (n_lab, lab)) = _object_crop(
         frame, background, sigma, (cu, cv), shape, settings, shadow_test)
-    ys, xs = nonzero_2d(cv2.dilate(fg, _KERNEL3) != 0)
+    grown = cv2.dilate(fg, _KERNEL3) != 0
+    shaded = _shaded(shade, grown)
+    ys, xs = nonzero_2d(grown)
     if ys.size == 0:
-        return cu, cv, 0.0, np.nan, np.nan, np.nan, np.nan, None
+        return cu, cv, 0.0, np.nan, np.nan, np.nan, np.nan, None, shaded
     level = float(det["level"]) if np.isfinite(det["level"]) and det["level"] > 0 else 1.0
     obj, mixed = float(det["obj_level"]), bool(det["mixed"])
     grow = settings.k_grow * sg
@@ -165,7 +168,8 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     wi = w * inside
     sw = float(wi.sum())
     if sw <= 0:
-        return float(det["u"]), float(det["v"]), 0.0, np.nan, np.nan, np.nan, np.nan, None
+        return (float(det["u"]), float(det["v"]), 0.0, np.nan, np.nan, np.nan, np.nan, None,
+                shaded)
     eu, ev = x - cu, y - cv
     c, s = np.cos(theta), np.sin(theta)
     m2 = ((eu * c + ev * s) / a) ** 2 + ((-eu * s + ev * c) / b) ** 2
@@ -205,7 +209,7 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     muu = float(np.sum(wi * eu * eu) / sw)
     mvv = float(np.sum(wi * ev * ev) / sw)
     muv = float(np.sum(wi * eu * ev) / sw)
-    return cu, cv, sw, muu, mvv, muv, residual, bar
+    return cu, cv, sw, muu, mvv, muv, residual, bar, shaded
 
 
 #: The object's shape is measured by its model in at most this many of its chain's
@@ -366,6 +370,17 @@ def _crop(frame, background, sigma, centre, reach, near_px, settings, shadow_tes
         counts[0] = 0
         fg = (lab == int(np.argmax(counts))).astype(np.uint8) if counts.any() else fg
     return (r0, c0), bg, sg, d, fg, shade, (n_lab, lab)
+
+
+def _shaded(shade, grown):
+    """How many pixels the shadow test took for a shadow (``shade``, or None) in the
+    regions of them that touch the object (``grown``: its foreground and a pixel
+    round it)."""
+    if shade is None or not np.any(shade & grown):
+        return 0
+    n_lab, lab = cv2.connectedComponents(shade.astype(np.uint8), connectivity=8)
+    touching = np.unique(lab[shade & grown])
+    return int(np.count_nonzero(np.isin(lab, touching[touching > 0])))
 
 
 def _noise(sg, det):
