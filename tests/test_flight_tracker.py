@@ -829,3 +829,34 @@ def test_a_ball_held_still_over_most_of_the_footage_then_dropped(tmp_path, monke
     assert np.all(d["flags"].to_numpy()[:rest - 1] & PRE_RELEASE)
     assert ok[rest:].sum() >= 0.9 * (n - rest)
     assert err[ok].max() <= 0.5
+
+
+@pytest.mark.parametrize("view", ["front", "top"])
+def test_a_second_straw_crossing_the_straw_is_flagged_merged_and_never_taken(view):
+    """A thinner, dimmer rod flies beside the straw and crosses it: the two are one
+    detection over 36 and 34 frames (front, top). Before, the chain went over to the rod
+    where they parted and was taken, unflagged, 23-77 px (front) and 17-52 px (top)
+    from the straw (the straw's own chain, its flight cut in two by the merged frames,
+    scored less). Chains that take the merged detections and are apart either side
+    mark those frames MERGED, and each chain's flight is scored round them, before the
+    chains through the same detections are made one. Measured: 88 and 97 frames
+    unflagged, at most 0.07 and 0.19 px off (top: the ride on the rotor, edge on, is not
+    flagged in that view, which finds no release: 0.075 px RMS)."""
+    from synth_runs import centroid_errors, synth_run, view_truth
+
+    from vidtrack.footage import open_source
+    from vidtrack.track.tracker import MERGED, track
+
+    run = synth_run("second", second_straw=True, second_cross_s=0.06)
+    per_frame, vt = view_truth(run, view)
+    with open_source(run / vt["source"], fps=vt["fps"]) as src:
+        tr = track(src, view=view, engine="flight")
+    err = centroid_errors(tr, per_frame)
+    ok = tr.usable
+    assert ok.sum() >= 60
+    assert np.all(err[ok] <= 0.3), np.round(np.nanmax(err[ok]), 2)
+    overlap = per_frame["overlap"].to_numpy()
+    flags = tr.data["flags"].to_numpy()
+    assert overlap.any() and np.all(flags[overlap] != 0)
+    assert np.count_nonzero(flags & MERGED) >= 20
+    assert any("they cross" in x for x in tr.notes), tr.notes

@@ -344,10 +344,12 @@ def test_sixteen_bit_image_folder():
     assert tr.noise_sigma > 100          # measured in 16-bit grey levels
 
 
-def test_blade_region_flags_overlap(default_run):
+@pytest.mark.parametrize("engine", ["rules", "flight"])
+def test_blade_region_flags_overlap(default_run, engine):
+    # (where the straw shares a pixel with the blade's region, not only its centre)
     per_frame, vt = view_truth(default_run, "front")
     blade = vt["blade"]
-    tr, per_frame, _ = _track_view(default_run, "front",
+    tr, per_frame, _ = _track_view(default_run, "front", engine=engine,
                                    blade_region=(*blade["centre_px"], blade["radius_px"]))
     flags = tr.data["flags"].to_numpy()
     measured = np.isfinite(tr.data["u_px"].to_numpy())

@@ -323,14 +323,15 @@ def test_a_slow_object_in_the_background_is_not_taken(tmp_path):
     assert np.all(_errors(tr, path)[tr.usable] <= 0.5)
 
 
-def test_a_slower_object_held_by_the_background_is_flagged(tmp_path):
+@pytest.mark.parametrize("engine", ["rules", "flight"])
+def test_a_slower_object_held_by_the_background_is_flagged(tmp_path, engine):
     """At 0.03 px a frame the ball goes its own size over the 400 frames, and the first
     search takes it as it is: before, 381 frames unflagged, 0.2 to 4.5 px off (the ball
     against the background that holds it, its area 46 to 205 px for 113). Where it lay
     within its radius of a frame's place in more than half of the background's frames,
     that frame is flagged, and the notes say why."""
     frames, path = _slow_ball(0.03)
-    tr = _track(tmp_path, frames, fps=10000.0)
+    tr = _track(tmp_path, frames, fps=10000.0, engine=engine)
     assert any(x.startswith("background: it lay where it is") for x in tr.notes), tr.notes
     assert np.all(_errors(tr, path)[tr.usable] <= 0.5)
     assert tr.flag_counts()["appearance"] >= 300

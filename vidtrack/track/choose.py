@@ -7,6 +7,11 @@ position is extrapolated by a quadratic in time through the chain's last
 of ``max(gate_px, gate_sizes * size)`` pixels (half again for every frame missed), its
 distance weighed by how much its size and its contrast differ from the chain's. A chain
 ends after ``max_gap`` frames without one.
+Where two chains take one detection over a run of frames and are apart before and after
+it (two things that cross, seen as one: :func:`mark_merged`, over every chain grown,
+before those through the same detections are made one), those frames are each chain's
+``merged``: they are seen but tell neither's flight (its score fits and scores round
+them) and are flagged MERGED.
 Chains through the same detections are one; two chains that one flight explains across
 a gap (the object hidden behind something for longer than ``max_gap``) are joined when
 each one's path, carried over the gap, meets the other's and their joint score exceeds
@@ -33,7 +38,7 @@ import numpy as np
 from vidtrack.errors import TrackError
 from vidtrack.track.path import extrapolate, local_quadratic
 
-__all__ = ["Chain", "grow", "choose", "flight_segment"]
+__all__ = ["Chain", "grow", "choose", "flight_segment", "mark_merged"]
 
 #: Two chains are one when they share more than this share of the shorter's detections;
 #: two chains are seen at once when both have detections in this share of the shorter's
@@ -60,7 +65,8 @@ SEEDS_MAX = 16
 class Chain:
     """A chain: ``pick[i]`` is the index of its detection in frame position ``i`` (-1:
     none), with its positions, sizes, shadow marks, weights and the spreads along its
-    major and minor axes (px) per frame (NaN, False and 0 where it has none)."""
+    major and minor axes (px) per frame (NaN, False and 0 where it has none), and its
+    ``merged`` frames (:func:`mark_merged`)."""
 
     def __init__(self, pick, detections):
         self.pick = pick
@@ -79,6 +85,7 @@ class Chain:
         self.frames = np.flatnonzero(pick >= 0)
         self.score = 0.0
         self.explained = np.zeros(n, bool)
+        self.merged = np.zeros(n, bool)
 
     def _take(self, i, d):
         self.u[i], self.v[i] = d["u"], d["v"]
@@ -186,10 +193,11 @@ def grow(detections, seed, settings):
     return pick
 
 
-def _cubic(t, y, ok, lo, hi, gap_frames):
+def _cubic(t, y, ok, lo, hi, gap_frames, through=None):
     """The cubic in time through the ``ok`` points of ``y`` (N, 2) within [lo, hi]:
     (its 90th percentile residual in px, its path length in px from point to point, across
-    no gap longer than ``gap_frames``); (0, 0) with fewer than 6 points."""
+    no gap longer than ``gap_frames`` but where every point in the gap is ``through``,
+    seen but not fitted); (0, 0) with fewer than 6 points."""
     m = ok & (t >= lo) & (t <= hi)
     if np.count_nonzero(m) < 6:
         return 0.0, 0.0
@@ -202,10 +210,15 @@ def _cubic(t, y, ok, lo, hi, gap_frames):
     path = a @ coef
     step = np.hypot(*np.diff(path, axis=0).T)
     seen = np.diff(t[m]) <= gap_frames
+    if through is not None and not seen.all():
+        # (a gap of points seen but not fitted, two objects merged: the object was there)
+        pos = np.flatnonzero(m)
+        blocked = np.r_[0, np.cumsum(~through)]
+        seen |= (blocked[pos[1:]] - blocked[pos[:-1] + 1]) == 0
     return float(np.percentile(res, 90)), float(np.sum(step[seen]))
 
 
-def flight_segment(t, y, ok, settings, size):
+def flight_segment(t, y, ok, settings, size, through=None):
     """The span of time, of the ``ok`` points, whose path one cubic in time explains
     (free flight with drag: gravity, a drag that changes smoothly) within
     ``flight_model_px + flight_residual_sizes * size`` (90th percentile) and that goes
@@ -238,7 +251,7 @@ def flight_segment(t, y, ok, settings, size):
         mids = mids[np.linspace(0, mids.size - 1, SEEDS_MAX).round().astype(int)]
     best = (0.0, None)
     for mid in mids:
-        span = _grow_span(t, y, ok, float(mid), t0, t1, tol, settings)
+        span = _grow_span(t, y, ok, float(mid), t0, t1, tol, settings, through)
         if span is not None and span[2] > best[0]:
             best = (span[2], span)
     if best[1] is None:
@@ -247,19 +260,19 @@ def flight_segment(t, y, ok, settings, size):
     return ok & (t >= lo) & (t <= hi), length
 
 
-def _grow_span(t, y, ok, mid, t0, t1, tol, settings):
+def _grow_span(t, y, ok, mid, t0, t1, tol, settings, through=None):
     """(lo, hi, path length) of the span grown from ``mid``, or None where the cubic
     does not hold even round it."""
     gap = settings.max_gap + 1
     lo, hi = max(mid - 2 * settings.path_window, t0), min(mid + 2 * settings.path_window, t1)
-    res, length = _cubic(t, y, ok, lo, hi, gap)
+    res, length = _cubic(t, y, ok, lo, hi, gap, through)
     if res > tol or length <= 0.0:
         return None
     step = 1.4
     while lo > t0 or hi < t1:
         w = max(mid - lo, hi - mid, 1.0) * step
         nlo, nhi = max(mid - w, t0), min(mid + w, t1)
-        r, n_len = _cubic(t, y, ok, nlo, nhi, gap)
+        r, n_len = _cubic(t, y, ok, nlo, nhi, gap, through)
         if r > tol:
             break
         lo, hi, length = nlo, nhi, n_len
@@ -267,7 +280,7 @@ def _grow_span(t, y, ok, mid, t0, t1, tol, settings):
         while (lo > t0) if side < 0 else (hi < t1):
             w = max((hi - lo) * (step - 1.0), 1.0)
             nlo, nhi = (max(lo - w, t0), hi) if side < 0 else (lo, min(hi + w, t1))
-            r, n_len = _cubic(t, y, ok, nlo, nhi, gap)
+            r, n_len = _cubic(t, y, ok, nlo, nhi, gap, through)
             if r > tol:
                 break
             lo, hi, length = nlo, nhi, n_len
@@ -290,11 +303,16 @@ def _score(chain, settings, detections):
     u, v = chain.u[idx], chain.v[idx]
     size = float(np.median(chain.size[idx]))
     uv = np.column_stack([u, v])
-    pred, _ = local_quadratic(idx, uv, settings.path_window)
+    alone = ~chain.merged[idx]
+    pred, _ = local_quadratic(idx, uv, settings.path_window,
+                              weights=None if alone.all() else alone.astype(float))
     res = np.hypot(*(pred - uv).T)
     ok = res <= max(settings.flight_residual_px, settings.flight_residual_sizes * size)
     ok &= ~np.array([bool(detections[i][chain.pick[i]]["border"]) for i in idx])
-    seg, length = flight_segment(idx.astype(float), uv, ok, settings, size)
+    # (a detection of two objects merged where they cross tells neither's flight)
+    ok &= alone
+    seg, length = flight_segment(idx.astype(float), uv, ok, settings, size,
+                                 through=None if alone.all() else ~alone)
     if not seg.any() or length < settings.min_travel_sizes * size:
         return 0.0
     chain.explained[idx[seg]] = True
@@ -303,8 +321,38 @@ def _score(chain, settings, detections):
     # the two crossed keeps the frames of its own)
     lev = np.log(np.maximum(chain.level[idx], 1e-3))
     alike = np.abs(lev - np.median(lev[seg])) <= np.log(LEVEL_RATIO)
-    good = np.count_nonzero(seg & alike & ~chain.shadow[idx]) / max(np.count_nonzero(inside), 1)
+    good = (np.count_nonzero(seg & alike & ~chain.shadow[idx])
+            / max(np.count_nonzero(inside & alone), 1))
     return float(length * good)
+
+
+def _runs(mask):
+    """(start, stop) of each run of True in ``mask`` (stop exclusive)."""
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(np.int8), 0]))
+    return list(zip(edges[::2], edges[1::2]))
+
+
+def mark_merged(chains, settings):
+    """Each chain's ``merged`` frames: those whose detection another chain takes too,
+    in a run of such frames that the other chain is seen apart from it on both sides of
+    (in ``link_min_frames`` frames or more each side, its detection another): two
+    objects seen as one where they cross. (A chain that shares the start or the end of
+    another, then goes its own way, is one of them taken twice, not a crossing.)
+    Returns whether any chain has such frames."""
+    any_merged = False
+    for c in chains:
+        c.merged[:] = False
+        for other in chains:
+            if other is c:
+                continue
+            same = (c.pick >= 0) & (other.pick == c.pick)
+            apart = (c.pick >= 0) & (other.pick >= 0) & (other.pick != c.pick)
+            for lo, hi in _runs(same):
+                if (np.count_nonzero(apart[:lo]) >= settings.link_min_frames
+                        and np.count_nonzero(apart[hi:]) >= settings.link_min_frames):
+                    c.merged[lo:hi] = True
+        any_merged |= bool(c.merged.any())
+    return any_merged
 
 
 def _joined(a, b, detections, settings):
@@ -338,7 +386,10 @@ def _joined(a, b, detections, settings):
     pick = np.full(a.pick.size, -1, np.int64)
     pick[:ea[-1] + 1] = a.pick[:ea[-1] + 1]
     pick[eb[0]:] = b.pick[eb[0]:]
-    return Chain(pick, detections)
+    both = Chain(pick, detections)
+    both.merged[:ea[-1] + 1] = a.merged[:ea[-1] + 1]
+    both.merged[eb[0]:] = b.merged[eb[0]:]
+    return both
 
 
 def _join(chains, detections, settings):
@@ -449,6 +500,10 @@ def choose(detections, tracklets, settings, *, target=None, frame_numbers=None,
         chain = Chain(grow(detections, seed, settings), detections)
         chain.score = _score(chain, settings, detections)
         grown.append(chain)
+    if mark_merged(grown, settings):
+        for chain in grown:
+            if chain.merged.any():
+                chain.score = _score(chain, settings, detections)
     # chains through the same detections are one: the best scoring of them
     chains = []
     for chain in sorted(grown, key=lambda c: c.score, reverse=True):

@@ -45,7 +45,8 @@ import warnings
 
 import numpy as np
 
-from vidtrack.track._flags import APPEARANCE, BORDER, LOST, OUTLIER, PRE_RELEASE, PREDICTED
+from vidtrack.track._flags import (APPEARANCE, BORDER, LOST, MERGED, OUTLIER, PRE_RELEASE,
+                                   PREDICTED)
 from vidtrack.track.choose import MAJORITY
 from vidtrack.track.joined import size_z
 from vidtrack.track.measure import residual_outliers
@@ -69,6 +70,8 @@ REASONS = {"lost": "no detection of the object in this frame (LOST)",
            "pre-release": "before the release found in the path (PRE_RELEASE)",
            "touched": "something touches the object: its detection grown at a stroke, or "
                       "weight near it outside its kernel (APPEARANCE)",
+           "merged": "its detection another moving thing's too, the two followed apart "
+                     "before and after: they cross (MERGED)",
            "hidden": "part of the object hidden: its size or measured weight shrunk at a "
                      "stroke (APPEARANCE)",
            "shadow": "shadow-like in a chain that is not (APPEARANCE)",
@@ -129,6 +132,14 @@ def _path_outliers(idx, uv, settings, start):
     for a frame it cannot predict) the least, that its own test passes.
     """
     ok = start.copy()
+    # (a frame the others predict only from afar, at an end beyond a gap, cannot be
+    # tested against them: it is not trusted at first either)
+    _pred, _acc, h, _ha = local_quadratic(idx, uv, settings.path_window,
+                                          weights=ok.astype(float), leverage=True)
+    with np.errstate(invalid="ignore"):
+        untested = ok & np.isfinite(h) & ~(h <= PREDICTION_H_MAX)
+    if np.count_nonzero(ok & ~untested) >= 3:
+        ok &= ~untested
     seen, rounds = {}, []
     scatter = float("nan")
     for r in range(idx.size + 1):
@@ -305,7 +316,11 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
                                                   > settings.k_flag)
     grown = touched | hidden
     flags[idx[grown]] |= APPEARANCE
-    off, scatter = _path_outliers(idx, uv, settings, ~grown)
+    # (two moving things seen as one detection where they cross: the place of neither)
+    crossed = chain.merged[idx]
+    flags[idx[crossed]] |= MERGED
+    reasons["merged"][idx[crossed]] = True
+    off, scatter = _path_outliers(idx, uv, settings, ~grown & ~crossed)
     flags[idx[off]] |= OUTLIER
     # (the chain's ends off its path, in view: what the chain took where the object was
     # not seen, a hand before the throw, a racket after a hit, is not the object)

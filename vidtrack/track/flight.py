@@ -431,6 +431,11 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
                                            joined=followed, held=over_held)
     if again_note:
         notes.insert(0, again_note)
+    if over_held.size:
+        notes.append(f"background: it lay where it is in {over_held.size} frames, over "
+                     f"pixels that no frame the background was taken from shows without "
+                     f"it: there the background holds it, and it is seen against itself, "
+                     f"off by a part of its size (flagged appearance)")
     u, v = chain.u.copy(), chain.v.copy()
     u[flags == LOST] = np.nan
     v[flags == LOST] = np.nan
@@ -438,6 +443,11 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     if followed.size:
         notes.append(f"{followed.size} frames before the flight followed by the rod's model into "
                      f"what it is joined to")
+    crossed = np.count_nonzero(chain.merged)
+    if crossed:
+        notes.append(f"{crossed} frames where the object's detection is another moving "
+                     f"thing's too, followed apart from it before and after (they cross): "
+                     f"left out of its flight, flagged merged")
     has = shaded[chain.frames] > 0
     if has.any():
         notes.append(f"shadow: pixels touching the object taken for its shadow (darker "
