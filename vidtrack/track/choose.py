@@ -335,8 +335,8 @@ def _runs(mask):
 def mark_merged(chains, settings):
     """Each chain's ``merged`` frames: those whose detection another chain takes too,
     in a run of such frames that the other chain is seen apart from it on both sides of
-    (in ``link_min_frames`` frames or more each side, its detection another): two
-    objects seen as one where they cross. (A chain that shares the start or the end of
+    (in ``link_min_frames`` frames or more each side, its detection another, farther
+    than their half lengths together): two objects seen as one where they cross. (A chain that shares the start or the end of
     another, then goes its own way, is one of them taken twice, not a crossing.)
     Returns whether any chain has such frames."""
     any_merged = False
@@ -346,7 +346,13 @@ def mark_merged(chains, settings):
             if other is c:
                 continue
             same = (c.pick >= 0) & (other.pick == c.pick)
-            apart = (c.pick >= 0) & (other.pick >= 0) & (other.pick != c.pick)
+            # (apart: farther than their half lengths together, so that no part of one
+            # is the other's: two pieces of one object, seen apart where part of it is
+            # lost against the wall, are not two things)
+            with np.errstate(invalid="ignore"):
+                reach = np.sqrt(3.0) * (c.major + other.major)
+                apart = ((c.pick >= 0) & (other.pick >= 0) & (other.pick != c.pick)
+                         & (np.hypot(c.u - other.u, c.v - other.v) > reach))
             for lo, hi in _runs(same):
                 if (np.count_nonzero(apart[:lo]) >= settings.link_min_frames
                         and np.count_nonzero(apart[hi:]) >= settings.link_min_frames):
