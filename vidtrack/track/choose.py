@@ -336,9 +336,9 @@ def mark_merged(chains, settings):
     """Each chain's ``merged`` frames: those whose detection another chain takes too,
     in a run of such frames that the other chain is seen apart from it on both sides of
     (in ``link_min_frames`` frames or more each side, its detection another, farther
-    than their half lengths together): two objects seen as one where they cross. (A chain that shares the start or the end of
-    another, then goes its own way, is one of them taken twice, not a crossing.)
-    Returns whether any chain has such frames."""
+    than their half lengths together): two objects seen as one where they cross. (A
+    chain that shares the start or the end of another, then goes its own way, is one of
+    them taken twice, not a crossing.) Returns whether any chain has such frames."""
     any_merged = False
     for c in chains:
         c.merged[:] = False

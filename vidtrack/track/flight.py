@@ -416,8 +416,8 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     rod = is_rod(shape)     # (before the measurement refines the shape's profile)
     # (a rod is followed back into what it rides where its release is looked for)
     follow = rod and view != "top"
-    moments, residual, bars, shaded = _measure(source, held, detector, detections, chain, shape,
-                                       settings, cancel, steady)
+    moments, residual, bars, shaded = _measure(source, held, detector, detections, chain,
+                                               shape, settings, cancel, steady)
     get = (held.__getitem__ if held is not None
            else _frames_before(source, steady, settings.release_window))
     followed = (follow_back(get, detections, chain, bars, detector, shape, settings)
