@@ -164,17 +164,22 @@ def _over(chain, shape, mask, settings):
     return idx[(d2 <= r * r).any(axis=1)]
 
 
-def _covers(mask, u, v, second):
-    """Whether the object at (``u``, ``v``) with second central moments ``second`` (muu,
-    mvv, muv; px^2) shares a pixel with ``mask``: the points of the uniform rectangle of
-    those moments, one pixel apart, are looked up."""
-    muu, mvv, muv = second
-    if not np.all(np.isfinite(second)):
-        muu = mvv = muv = 0.0
+def _bar_axes(muu, mvv, muv):
+    """The angle (rad from +u towards +v), length and width (px) of the uniform
+    rectangle of second central moments ``muu, mvv, muv`` (px^2)."""
     angle = 0.5 * np.arctan2(2.0 * muv, muu - mvv)
     half = np.hypot(0.5 * (muu - mvv), muv)
     length = np.sqrt(12.0 * max(0.5 * (muu + mvv) + half, 0.0))
     width = np.sqrt(12.0 * max(0.5 * (muu + mvv) - half, 0.0))
+    return angle, length, width
+
+
+def _covers(mask, u, v, angle, length, width):
+    """Whether the object at (``u``, ``v``), a rectangle of that ``angle``, ``length``
+    and ``width`` (:func:`_bar_axes`; its centre alone where they are not known),
+    shares a pixel with ``mask``: its points one pixel apart are looked up."""
+    if not np.all(np.isfinite((angle, length, width))):
+        angle = length = width = 0.0
     s = np.linspace(-0.5, 0.5, int(np.ceil(length)) + 1)[:, None] * length
     t = np.linspace(-0.5, 0.5, int(np.ceil(width)) + 1)[None, :] * width
     c, n = np.cos(angle), np.sin(angle)
@@ -461,14 +466,12 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     area = np.full(n, np.nan)
     angle = np.full(n, np.nan)
     length = np.full(n, np.nan)
+    width = np.full(n, np.nan)
     levels = []
     for i in chain.frames:
         d = detections[i][chain.pick[i]]
         area[i] = moments[i, 0]
-        muu, mvv, muv = moments[i, 1:]
-        angle[i] = 0.5 * np.arctan2(2.0 * muv, muu - mvv)
-        lam = 0.5 * (muu + mvv) + np.hypot(0.5 * (muu - mvv), muv)
-        length[i] = np.sqrt(12.0 * max(lam, 0.0))
+        angle[i], length[i], width[i] = _bar_axes(*moments[i, 1:])
         # (its own grey level, as the straw_level of a Track is: its body's where it has
         # a highlight; none for an object of several tones)
         own = d["body_level"] if d["mixed"] else d["obj_level"]
@@ -477,7 +480,7 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     reasons["blade"] = np.zeros(n, bool)
     if mask is not None:
         for i in chain.frames:
-            if np.isfinite(u[i]) and _covers(mask, u[i], v[i], moments[i, 1:]):
+            if np.isfinite(u[i]) and _covers(mask, u[i], v[i], angle[i], length[i], width[i]):
                 flags[i] |= BLADE
                 reasons["blade"][i] = True
     times = np.asarray(source.times_s)[:n]

@@ -23,7 +23,8 @@ import math
 
 import numpy as np
 
-__all__ = ["fit_rod", "F_SCALE", "BAR_F_SCALE", "MIN_LENGTH_PX", "FOOTPRINT_SHARE", "END_COLUMNS"]
+__all__ = ["fit_rod", "F_SCALE", "BAR_F_SCALE", "MIN_LENGTH_PX", "FOOTPRINT_SHARE",
+           "END_COLUMNS"]
 
 #: A rod's track's columns for its two ends (px): the ends of the bar fitted to it
 #: (:func:`vidtrack.track.flight.rod_ends`).
