@@ -9,7 +9,7 @@ from vidtrack._atomic import atomic_path, write_text
 def available():
     """Benchmarks this installation can run (``track`` appears once its module exists)."""
     names = ["model"]
-    for name in ("track", "fit", "perspective"):
+    for name in ("track", "fit", "perspective", "stages"):
         if importlib.util.find_spec(f"vidtrack.bench.{name}") is not None:
             names.append(name)
     return names
@@ -82,5 +82,14 @@ def bench_perspective(out_dir, *, quick=False, progress=None, seeds=None, repeat
                                  repeats=repeats, warmup=warmup)
 
 
+def bench_stages(out_dir, *, quick=False, progress=None, run=None, baseline=None, repeats=3,
+                 warmup=1):
+    """One throw's fit and report stages (cold and warm CPU) against decoding its footage."""
+    from vidtrack.bench.stages import run_stages_bench
+
+    return run_stages_bench(out_dir, run=run, baseline=baseline, repeats=repeats,
+                            warmup=warmup, progress=progress)
+
+
 RUNNERS = {"model": bench_model, "track": bench_track, "fit": bench_fit,
-           "perspective": bench_perspective}
+           "perspective": bench_perspective, "stages": bench_stages}

@@ -23,6 +23,11 @@ pick, in one run on this machine, and write a table (TEXT, CSV) and a plot (PNG)
          are absent is skipped, saying so; one an engine refuses is a 'failed' row
   fit    k error against frames used (1200..150 fps) and run time, interval coverage
          over seeded runs, and the whole 'vidtrack fit' against plain decoding
+  stages one throw's fit stage (cross-checks, least squares, the scales' and the
+         perspective's part) and report stage (report.html and report.md), each
+         timed cold (its first call in a fresh process) and warm, in CPU seconds
+         against decoding the same footage; --run RUN (default: the sample run of a
+         checkout), --baseline DIR times another checkout in the same rounds
   perspective
          pinhole cameras 60..120 degrees apart, 1..3 m away: k error read as calibrated
          cameras, and the square rig at 1.5 and 3 m read orthographically (without and
@@ -42,6 +47,8 @@ Examples:
   vidtrack bench track --quick --repeats 5
   vidtrack bench track --real --repeats 1 --warmup 0
   vidtrack bench track --real --engine rules --clips balltoss,launcher,synth:shadow
+  vidtrack bench stages --repeats 5
+  vidtrack bench stages --baseline /tmp/vidtrack-main     (e.g. git archive main, unpacked)
 """
 
 
@@ -66,6 +73,13 @@ def add_arguments(parser):
     parser.add_argument("--warmup", type=int, default=1, metavar="N",
                         help="uncounted calls of each timed method before the counted ones "
                              "(default 1; 0: time cold calls)")
+    stages = parser.add_argument_group("one throw's stages (vidtrack bench stages)")
+    stages.add_argument("--run", default=None, metavar="RUN",
+                        help="the run folder whose throw is timed (default: datasets/run42 "
+                             "of this checkout), e.g. --run datasets/run42")
+    stages.add_argument("--baseline", default=None, metavar="DIR",
+                        help="the root of another vidtrack checkout, timed in the same "
+                             "rounds, its k beside this one's, e.g. --baseline /tmp/main")
     real = parser.add_argument_group("the tracker scoreboard (vidtrack bench track --real)")
     real.add_argument("--real", action="store_true",
                       help="track: the scoreboard on real clips and synthetic distractor "
@@ -112,6 +126,8 @@ def run(args):
     if args.which == "model" and importlib.util.find_spec("mpmath") is None:
         raise VidtrackError("vidtrack bench model measures against 50-digit truth and needs "
                             "mpmath: pip install 'vidtrack[bench]'")
+    if args.which != "stages" and (args.run is not None or args.baseline is not None):
+        raise VidtrackError("--run and --baseline go with 'vidtrack bench stages'")
     scoreboard = (args.engine, args.clips, args.shared)
     if not args.real and any(x is not None for x in scoreboard):
         raise VidtrackError("--engine, --clips and --shared go with 'vidtrack bench track "
@@ -128,6 +144,11 @@ def run(args):
         print(f"\nwritten to {args.out}/")
         return 0
     extra = {"seeds": args.seeds} if args.which in ("fit", "perspective") else {}
+    if args.which == "stages":
+        if args.quick:
+            raise VidtrackError("--quick does not go with 'vidtrack bench stages' (one "
+                                "throw; --repeats sets its length)")
+        extra = {"run": args.run, "baseline": args.baseline}
     text = RUNNERS[args.which](args.out, quick=args.quick, progress=progress,
                                repeats=args.repeats, warmup=args.warmup, **extra)
     print(text)
