@@ -1,5 +1,11 @@
 """The command line frame: every subcommand listed, with help and an example; exit codes."""
 
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
 
 from vidtrack.cli import COMMANDS
@@ -188,3 +194,59 @@ def test_a_notebook_gets_a_bar_even_without_a_terminal(monkeypatch):
     # --quiet wins everywhere
     assert _progress.progress(items, quiet=True) is items
     assert not _progress.bars_enabled(quiet=True)
+
+
+# ---------------------------------------------------------------- profiling a command
+
+CHEN = Path(__file__).resolve().parents[1] / "datasets" / "published" / "chen2018_table2_ccd.csv"
+ANOVA = ("anova", CHEN, "--response", "k1", "--factor", "A=n_rpm:550:100", "--factor",
+         "B=blade_angle_deg:0:5", "--factor", "C=speed_kmh:7.2:1.8", "--json")
+
+
+def _profiled_functions(path):
+    """(file name, function) pairs of a cProfile statistics file, as pstats reads it."""
+    import pstats
+
+    return {(Path(file).name, name) for file, _, name in pstats.Stats(str(path)).stats}
+
+
+def test_any_command_can_be_profiled(vidtrack_cli, tmp_path):
+    """``vidtrack --profile FILE COMMAND``: a profile pstats reads, holding the function
+    that did the command's work; the command's output is what it is without it."""
+    prof = tmp_path / "anova.prof"
+    res = vidtrack_cli("--profile", prof, *ANOVA)
+    assert res.returncode == 0, res.stderr
+    assert ("fit.py", "fit_rsm") in _profiled_functions(prof)
+    assert json.loads(res.stdout) == json.loads(vidtrack_cli(*ANOVA).stdout)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["anova.prof"]   # no temporary
+
+
+def test_the_console_script_under_cprofile_writes_its_profile(tmp_path):
+    """``python -m cProfile -o F $(which vidtrack) ...``: the console script lets the
+    interpreter finish under a profiler (on Python 3.12+ cProfile watches through
+    sys.monitoring, not sys.setprofile), so cProfile writes the file."""
+    script = shutil.which("vidtrack", path=str(Path(sys.executable).parent))
+    if script is None:
+        pytest.skip("no vidtrack console script beside this Python (not installed)")
+    prof = tmp_path / "anova.prof"
+    res = subprocess.run([sys.executable, "-m", "cProfile", "-o", str(prof), script,
+                          *map(str, ANOVA)], capture_output=True, text=True, timeout=600,
+                         stdin=subprocess.DEVNULL)
+    assert res.returncode == 0, res.stderr
+    assert ("fit.py", "fit_rsm") in _profiled_functions(prof)
+
+
+def test_a_profile_never_replaces_a_file_that_is_not_one(vidtrack_cli, tmp_path):
+    """--profile naming an input (or any file that is not a profile) is refused before
+    any work, exit 2, the file untouched; an earlier profile is replaced."""
+    table = tmp_path / "table.csv"
+    shutil.copy(CHEN, table)
+    res = vidtrack_cli("--profile", table, *ANOVA[:1], table, *ANOVA[2:])
+    assert res.returncode == 2
+    assert res.stderr.startswith(f"vidtrack anova: error: --profile {table}: exists and is "
+                                 "not a profile")
+    assert table.read_bytes() == CHEN.read_bytes()
+    prof = tmp_path / "again.prof"
+    for _ in range(2):
+        assert vidtrack_cli("--profile", prof, *ANOVA).returncode == 0
+    assert ("fit.py", "fit_rsm") in _profiled_functions(prof)

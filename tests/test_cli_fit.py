@@ -589,10 +589,11 @@ def test_a_track_edited_through_hdf5_is_used_as_edited(vidtrack_cli, tmp_path, f
     assert (front["flags"].to_numpy()[100:200] & 64).all()
 
 
-@pytest.mark.parametrize("how", ["--profile", "python -m cProfile"])
+@pytest.mark.parametrize("how", ["--profile", "vidtrack --profile", "python -m cProfile"])
 def test_a_run_can_be_profiled(tmp_path, fitted_run42, how):
-    """``vidtrack fit --profile FILE``, and cProfile round the command (the command does
-    not end the interpreter under a profiler): a profile pstats reads, with the fit in it."""
+    """``vidtrack fit --profile FILE`` (or ``vidtrack --profile FILE fit``), and cProfile
+    round the command (the command does not end the interpreter under a profiler): a
+    profile pstats reads, with the fit in it."""
     import pstats
     import shutil
 
@@ -604,6 +605,8 @@ def test_a_run_can_be_profiled(tmp_path, fitted_run42, how):
     prof = tmp_path / "fit.prof"
     if how == "--profile":
         res = run_vidtrack("fit", "-q", "--no-report", run, "--profile", prof)
+    elif how == "vidtrack --profile":
+        res = run_vidtrack("--profile", prof, "fit", "-q", "--no-report", run)
     else:
         res = subprocess.run([sys.executable, "-m", "cProfile", "-o", str(prof), "-m",
                               "vidtrack", "fit", "-q", "--no-report", str(run)],

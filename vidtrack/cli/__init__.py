@@ -12,6 +12,10 @@ Messages: the library logs under the ``vidtrack``, ``fits`` and ``calibration`` 
 at WARNING by default, INFO with ``-v``, DEBUG with ``-vv`` and ERROR with ``-q``
 (which also turns the progress bars off). ``-v`` and ``-q`` go before or after the
 command: ``vidtrack -v fit RUN`` and ``vidtrack fit RUN -v`` are the same.
+
+Profiling: ``vidtrack --profile FILE COMMAND ...`` writes a cProfile of any command
+(:mod:`vidtrack.cli._profile`; ``vidtrack fit`` takes it after the command too), and
+``python -m cProfile -o FILE $(which vidtrack) COMMAND ...`` works as well.
 """
 
 import argparse
@@ -157,6 +161,11 @@ def build_parser():
     parser.add_argument("--version", action="version", version=f"vidtrack {__version__}")
     parser.add_argument("--debug", action="store_true",
                         help="show the full traceback of an internal error")
+    parser.add_argument("--profile", metavar="FILE", default=None,
+                        help="write a cProfile of the command to FILE (read it with "
+                             "python -m pstats FILE); it covers this process only, not "
+                             "the worker processes a command starts, e.g. vidtrack "
+                             "--profile report.prof report exp2016/")
     add_common_options(parser, level=0)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMANDS:
@@ -165,7 +174,8 @@ def build_parser():
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         add_common_options(p, level=1)
         module.add_arguments(p)
-        p.set_defaults(_run=module.run)
+        p.set_defaults(_run=module.run,
+                       _profiles_itself=getattr(module, "PROFILES_ITSELF", False))
     return parser
 
 
@@ -180,7 +190,13 @@ def main(argv=None):
         delattr(args, key)
     configure_logging(args.command, verbose=args.verbose, quiet=args.quiet)
     try:
-        return int(args._run(args) or 0)
+        if args.profile is None or args._profiles_itself:
+            return int(args._run(args) or 0)
+        from vidtrack.cli._profile import check_profile_path, profiled
+
+        check_profile_path(args.profile)
+        with profiled(args.profile):
+            return int(args._run(args) or 0)
     except INPUT_ERRORS as exc:
         # one line whatever the names in it hold (a newline, a terminal's escapes)
         print(f"vidtrack {args.command}: error: {printable(exc)}", file=sys.stderr)
@@ -220,17 +236,20 @@ def run():
     Every output is written and closed, and every worker stopped, before ``main``
     returns; what is left is freeing the loaded libraries' objects one by one (0.2 s of
     a 3 s fit), which the operating system does at once. Under a profiler or a tracer
-    (``python -m cProfile -o F $(which vidtrack) ...``, coverage, a debugger) the exit
-    code is returned instead, so that the interpreter finishes and they write what they
-    gathered.
+    (``python -m cProfile -o F $(which vidtrack) ...``, coverage, a debugger; through
+    ``sys.setprofile``/``sys.settrace`` or, from Python 3.12, ``sys.monitoring``, which
+    cProfile uses there) the exit code is returned instead, so that the interpreter
+    finishes and they write what they gathered.
     """
+    from vidtrack.cli._profile import observed
+
     code = main()
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
         except (OSError, ValueError):   # a closed pipe (``| head``): nothing more to say
             pass
-    if sys.getprofile() is not None or sys.gettrace() is not None:
+    if observed():
         return code
     os._exit(code)
 

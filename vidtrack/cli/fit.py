@@ -1,6 +1,11 @@
 """``vidtrack fit``: footage -> tracks -> world track -> k1..k4, for one or many runs."""
 
+import argparse
 import contextlib
+
+#: The --profile path is checked against the runs and the fit profiled here (the
+#: command line's main leaves it to this command): before or after the command alike.
+PROFILES_ITSELF = True
 
 HELP = "fit k1..k4 to a run's footage (frames, tracks, 3-D track, least squares)"
 DESCRIPTION = """\
@@ -58,7 +63,7 @@ def add_arguments(parser):
                              "the warning is printed and kept in fit.json")
     parser.add_argument("--json", action="store_true",
                         help="print the fit.json record(s) to stdout (a list for several runs)")
-    parser.add_argument("--profile", metavar="FILE",
+    parser.add_argument("--profile", metavar="FILE", default=argparse.SUPPRESS,
                         help="write a cProfile of the command to FILE (read it with python "
                              "-m pstats FILE); it covers this process only: the view "
                              "tracked by the worker process (with the report's plots it "
@@ -119,14 +124,15 @@ def run(args):
     import logging
     import sys
 
-    from vidtrack._atomic import check_output
     from vidtrack._text import printable
+    from vidtrack.cli._profile import check_profile_path, profiled
     from vidtrack.run.pipeline import FitOptions, check_counts, find_runs, fit_runs
 
     check_counts(jobs=args.jobs, bootstrap=args.bootstrap, seed=args.seed)
     runs = find_runs(args.runs)
-    if args.profile:
-        check_output(args.profile, inputs=runs, label=f"--profile {args.profile}")
+    profile = getattr(args, "profile", None)    # vidtrack --profile F fit, fit --profile F
+    if profile:
+        check_profile_path(profile, inputs=runs)
     options = FitOptions(model=args.model, bootstrap=args.bootstrap, seed=args.seed,
                          force=args.force, report=not args.no_report, quiet=args.quiet,
                          view_process=True, accept_disagreement=args.accept_disagreement)
@@ -140,7 +146,7 @@ def run(args):
             print(f"  fitted {printable(record['run'])}", file=sys.stderr)
 
     try:
-        with sigterm_as_interrupt(), profiled(args.profile):
+        with sigterm_as_interrupt(), profiled(profile):
             # every run is checked before any is tracked (fit_runs: prepare_runs)
             records = fit_runs(runs, options, jobs=args.jobs, scheduler=args.scheduler,
                                progress=progress)
@@ -158,30 +164,6 @@ def run(args):
 INTERRUPTED = ("interrupted; every file in the runs' vidtrack/ folders is whole (the "
                "unfinished stage left none) and finished stages are reused: run the same "
                "command again to finish")
-
-
-@contextlib.contextmanager
-def profiled(path):
-    """cProfile what runs inside, the statistics written to ``path`` on the way out.
-
-    Written whole or not at all, also when the fit fails or is interrupted (its profile
-    is then of what ran); ``path`` None profiles nothing.
-    """
-    if path is None:
-        yield
-        return
-    import cProfile
-
-    from vidtrack._atomic import atomic_path
-
-    profiler = cProfile.Profile()
-    profiler.enable()
-    try:
-        yield
-    finally:
-        profiler.disable()
-        with atomic_path(path) as tmp:
-            profiler.dump_stats(tmp)
 
 
 @contextlib.contextmanager
