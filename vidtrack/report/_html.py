@@ -47,6 +47,16 @@ def table(headers, rows, *, left=1, classes=None):
     return "".join(out)
 
 
+#: A title's height on its axes (axes coordinates): given, matplotlib places it there
+#: without measuring the axes' tick labels at every draw to find a place above them
+#: (about a tenth of drawing a small plot). The plots here have nothing above their
+#: axes (no top ticks or labels), where it would have gone all the same.
+TITLE_Y = 1.0
+#: zlib level of the inline PNGs (PIL's default is 6): plots compress about as well
+#: at 3 (the fitted-curves plot 77 kB instead of 67 kB) in half the time.
+PNG_COMPRESS_LEVEL = 3
+
+
 def figure(w, h):
     """A matplotlib Figure on the Agg canvas (no pyplot state, no display)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -78,7 +88,8 @@ def png_bytes(fig, *, dpi=90):
     FigureCanvasAgg(fig)
     buf = io.BytesIO()
     # no bbox_inches="tight": it draws the figure twice; figures use tight_layout
-    fig.savefig(buf, format="png", dpi=dpi)
+    fig.savefig(buf, format="png", dpi=dpi,
+                pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
     return buf.getvalue()
 
 

@@ -90,7 +90,8 @@ def _track_plot(views):
             y = np.asarray(df[col])
             ax.plot(frame, y, ".", ms=2, color=colour, label=col)
             ax.plot(frame[bad], y[bad], "x", ms=4, color="red")
-        ax.set_title(f"{name} view: straw centroid (red x: flagged, not fitted)")
+        ax.set_title(f"{name} view: straw centroid (red x: flagged, not fitted)",
+                     y=_html.TITLE_Y)
         ax.set_xlabel("frame")
         ax.set_ylabel("pixels")
         ax.legend(fontsize=8)
@@ -127,7 +128,7 @@ def _fit_plot(world, curves):
             top.plot(tt, pred[:, i], "-", lw=1.2, color="k", label="fitted")
             bottom.plot(t[ok], 1000 * (obs[ok] - pred_at[ok, i]), ".", ms=2)
         bottom.axhline(0, color="k", lw=0.8)
-        top.set_title(f"{axis}(t)")
+        top.set_title(f"{axis}(t)", y=_html.TITLE_Y)
         top.set_ylabel(f"{axis} (m)")
         bottom.set_ylabel("residual (mm)")
         bottom.set_xlabel("t (s)")
@@ -161,7 +162,7 @@ def _calibrated_plot(world):
     for col in [c for c in world if str(c).startswith("reprojection_px_")]:
         ax_err.plot(frame, np.asarray(world[col]), ".", ms=3,
                     label=str(col).removeprefix("reprojection_px_"))
-    ax_err.set_title("reprojection error per view")
+    ax_err.set_title("reprojection error per view", y=_html.TITLE_Y)
     ax_err.set_xlabel("frame")
     ax_err.set_ylabel("px")
     ax_err.legend(fontsize=8)
@@ -174,8 +175,8 @@ def _calibrated_plot(world):
         ax.set_aspect("equal", adjustable="datalim")
     if raw is not None and bad.any():
         ax_err.plot(frame[bad], np.zeros(int(bad.sum())), "x", color="red", ms=5)
-    ax_side.set_title("throw frame, side (x, y)")
-    ax_plan.set_title("from above (x, z)")
+    ax_side.set_title("throw frame, side (x, y)", y=_html.TITLE_Y)
+    ax_plan.set_title("from above (x, z)", y=_html.TITLE_Y)
     fig.subplots_adjust(left=0.06, right=0.99, top=0.9, bottom=0.15, wspace=0.35)
     return _html.few_ticks(fig)
 
