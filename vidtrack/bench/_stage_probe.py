@@ -12,7 +12,10 @@ same calls in the same order:
   of crops of the footage) and report.md.
 
 Each stage's first call is ``cold`` (what it imports and loads for itself counted),
-then ``warm`` counted calls follow. Only names that every version since 0.2 has are
+then ``warm`` counted calls follow. Before the clock starts the process has loaded what
+the command has loaded when its fit stage begins: the pipeline, and the modules it
+imports during tracking for the later stages (``vidtrack.run._workers.LATER_STAGES``);
+matplotlib is not among them (the report stage loads it). Only names that every version since 0.2 has are
 used, so that an older checkout can be timed beside this one in the same run. Prints
 one JSON object: CPU and wall seconds per call, and the fit's k1..k4 with their
 standard errors (the fit's and the scales') and 95 % intervals (the fit's, the total).
@@ -49,10 +52,16 @@ def _timed(fn):
 
 def _stages(run):
     """(fit stage, report stage) of the run's throw as functions of no argument."""
+    import importlib
+
     import numpy as np
 
+    from vidtrack.run import _workers
     from vidtrack.run.tracks_file import read_tracks
     from vidtrack.scene import load_scene
+
+    for name in ("vidtrack.run.pipeline",) + tuple(getattr(_workers, "LATER_STAGES", ())):
+        importlib.import_module(name)         # loaded by the command before its fit stage
 
     scene = load_scene(run)
     kept = read_tracks(Path(run) / "vidtrack" / "tracks.h5")
