@@ -15,8 +15,9 @@ Each stage's first call is ``cold`` (what it imports and loads for itself counte
 then ``warm`` counted calls follow. Before the clock starts the process has loaded what
 the command has loaded when its fit stage begins: the pipeline, and the modules it
 imports during tracking for the later stages (``vidtrack.run._workers.LATER_STAGES``);
-matplotlib is not among them (the report stage loads it). Only names that every version since 0.2 has are
-used, so that an older checkout can be timed beside this one in the same run. Prints
+matplotlib is not among them (the report stage loads it). Only names that every
+version since 0.2 has are used, so that an older checkout can be timed beside this one
+in the same run. Prints
 one JSON object: CPU and wall seconds per call, and the fit's k1..k4 with their
 standard errors (the fit's and the scales') and 95 % intervals (the fit's, the total).
 

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from vidtrack._atomic import write_text
+from vidtrack._atomic import atomic_path, write_text
 from vidtrack.bench._timing import timed_each
 
 __all__ = ["run_stages_bench", "sample_run"]
@@ -157,7 +157,8 @@ def run_stages_bench(out_dir, *, run=None, baseline=None, repeats=3, warmup=1,
     for name in codes:
         rows += _rows(name, probes[name], warmup, decode.cpu_min_s)
     table = pd.DataFrame(rows)
-    table.to_csv(out_dir / "bench_stages.csv", index=False)
+    with atomic_path(out_dir / "bench_stages.csv") as tmp:
+        table.to_csv(tmp, index=False)
     text = [f"One throw of {run} (fit stage and report stage, CPU s, one BLAS thread) "
             f"against decoding its footage ({decode.result} frames: CPU min "
             f"{decode.cpu_min_s:.3f} s, median {decode.cpu_median_s:.3f} s); "
