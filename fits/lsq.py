@@ -101,8 +101,9 @@ def _solve(problem, t, obs, starts):
 
 
 def _polish(problem, t, obs, res, scale):
-    """Gauss-Newton steps from the solver's answer ``res`` (changed in place) to the
-    least-squares minimum itself, where the residuals are orthogonal to the Jacobian.
+    """Gauss-Newton steps from the solver's answer ``res`` (changed in place: ``x``,
+    ``fun``, ``cost``, and ``jac_at_x`` the scaled Jacobian there) to the least-squares
+    minimum itself, where the residuals are orthogonal to the Jacobian.
 
     The solver stops where its tolerances say; on a flat valley the cost there is the
     minimum's to rounding while the estimates are up to a few 1e-6 (relative) apart from
@@ -129,6 +130,7 @@ def _polish(problem, t, obs, res, scale):
                 break
             q, r, jac, grad = trial, r_trial, jac_trial, grad_trial
     res.x, res.fun, res.cost = q, r, 0.5 * float(r @ r)
+    res.jac_at_x = jac        # in the scaled variables, for _statistics (not evaluated again)
 
 
 def _gradient(jac, r):
@@ -168,11 +170,13 @@ def _statistics(problem, t, obs, res, scale, errors=True):
     residuals is kept as a diagnostic.
     """
     p = res.x * scale
-    r = problem.fun(t, p) - obs
+    # the residuals and the Jacobian at the answer, as _polish left them (the model is
+    # not evaluated again for them)
+    r = res.fun
     n, k = obs.size, p.size
     dof = n - k
     rss = float(r @ r)
-    jac = problem.jac(t, p) * scale      # in the scaled variables
+    jac = res.jac_at_x                   # in the scaled variables
     s = np.linalg.svd(jac, compute_uv=False)
     cond = float(s[0] / s[-1]) if s[-1] > 0 else np.inf
     if not errors:       # the estimates only (fit_throw(errors=False)): no covariance
