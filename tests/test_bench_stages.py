@@ -50,3 +50,5 @@ def test_stages_options_go_with_stages_only(vidtrack_cli, tmp_path):
     assert res.returncode == 2 and "--run and --baseline go with" in res.stderr
     res = vidtrack_cli("bench", "stages", "--baseline", tmp_path, "--out", tmp_path)
     assert res.returncode == 2 and "no vidtrack/__init__.py there" in res.stderr
+    res = vidtrack_cli("bench", "stages", "--run", tmp_path, "--out", tmp_path)
+    assert res.returncode == 2 and "expected a run folder of one throw" in res.stderr

@@ -131,6 +131,9 @@ def run_stages_bench(out_dir, *, run=None, baseline=None, repeats=3, warmup=1,
     if run is None:
         raise VidtrackError("vidtrack bench stages: no run given and no datasets/run42 "
                             "beside the package; give one with --run RUN")
+    if not (run / "scene.toml").is_file() or (run / "throws").is_dir():
+        raise VidtrackError(f"--run {run}: expected a run folder of one throw (scene.toml "
+                            "and its footage, no throws/)")
     codes = {"this": _code_root(Path(__file__).resolve().parents[2])}
     if baseline is not None:
         codes["baseline"] = _code_root(baseline)
