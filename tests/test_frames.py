@@ -275,6 +275,54 @@ def test_slicing_decodes_nothing(case):
         next(iter(view))
 
 
+# Slices as a Python list slices them: bounds past either end clipped, any step but 0
+LIST_SLICES = [slice(5, 100), slice(100, None), slice(-100, 3), slice(-100, -50),
+               slice(18, -100, -3), slice(None, None, -7), slice(None, 100, 6), slice(7, 2)]
+
+
+@pytest.mark.parametrize("key", LIST_SLICES, ids=repr)
+def test_a_slice_selects_the_frames_a_list_slice_does(case, key):
+    with open_source(case["path"], frames=(2, 18), **case["kwargs"]) as src:
+        file_frames = list(range(2, 18))             # a list of the range's file frames
+        view = src[key]
+        assert len(view) == len(file_frames[key])
+        assert view.frame_numbers.tolist() == file_frames[key]
+        assert view[::-1].frame_numbers.tolist() == file_frames[key][::-1]
+        assert view[1::2].frame_numbers.tolist() == file_frames[key][1::2]
+
+
+def test_a_view_gives_exactly_what_integer_indexing_gives(case):
+    with open_source(case["path"], **case["kwargs"]) as src:
+        by_index = [src[k] for k in range(N)]        # the same decoder, one frame at a time
+        for key in (slice(3, 17, 2), slice(None, None, -3), slice(-6, None), [4, 4, 0, -1]):
+            view = src[key]
+            want = np.arange(N)[key]
+            for f, k in zip(view, want):                            # iterated
+                np.testing.assert_array_equal(f, by_index[k])
+            for i in range(-len(view), len(view)):                  # indexed, both ends
+                np.testing.assert_array_equal(view[i], by_index[want[i]])
+            with pytest.raises(IndexError, match="out of range"):
+                view[len(view)]
+            with pytest.raises(IndexError, match="out of range"):
+                view[-len(view) - 1]
+
+
+@pytest.mark.parametrize("key", [1.5, None, "3", b"3", 2j, slice(1.5, 3), [1.0, 2.0]],
+                         ids=repr)
+def test_a_bad_index_type_is_a_type_error(case, key):
+    with open_source(case["path"], **case["kwargs"]) as src:
+        for seq in (src, src[2:9]):
+            with pytest.raises(TypeError, match="integer"):
+                seq[key]
+
+
+def test_a_zero_step_is_refused_as_a_list_refuses_it(case):
+    with open_source(case["path"], **case["kwargs"]) as src:
+        for seq in (src, src[2:9], list(range(N))):
+            with pytest.raises(ValueError, match="zero"):
+                seq[::0]
+
+
 # ---------------------------------------------------------------------------------------
 # Streaming: memory does not grow with the length of the footage
 # ---------------------------------------------------------------------------------------
@@ -334,6 +382,25 @@ def test_a_view_of_long_footage_holds_no_frame(long_source):
 
         assert _peak_bytes(slice_all) < frame_bytes
         np.testing.assert_array_equal(view[0], src[LONG - 1])
+
+
+def test_a_view_s_size_does_not_grow_with_its_length(long_source):
+    with open_source(long_source, fps=FPS) as src:
+        views = []
+
+        def view_bytes(key):
+            # what making the view allocates, the view kept (a view of a view included)
+            return _peak_bytes(lambda: views.append(src[key][::1]))
+
+        short = view_bytes(slice(0, 2))
+        for key in (slice(None), slice(None, None, -1), slice(1, None, 3)):
+            # an int64 per frame would be 8 * 150 = 1200 bytes more
+            assert view_bytes(key) < short + 256, key
+        whole, backwards, every_third = views[1:]
+        np.testing.assert_array_equal(whole.frame_numbers, np.arange(LONG))
+        np.testing.assert_array_equal(backwards.frame_numbers, np.arange(LONG)[::-1])
+        np.testing.assert_array_equal(every_third.frame_numbers, np.arange(1, LONG, 3))
+        np.testing.assert_array_equal(every_third[-1], src[LONG - 2])
 
 
 def test_video_container_rate_without_capture_rate(tmp_path):

@@ -28,7 +28,8 @@ does: ``source[10:20]``, ``source[::2]``, ``source[-50:]``, ``source[[3, 7]]``. 
 decoded until a frame is read; the view keeps the file's numbering and clock
 (``view.frame_numbers``, ``view.times_s``), slices again, and goes wherever a source
 goes (``track(source[100:400])``). It reads through its source, so it is usable while
-the source is open.
+the source is open. A slice selects as a list's slice does (bounds past either end
+clipped); a slice's view holds its start, stop and step, not a number per frame.
 
 The time base (which rate gives the times) is, in order of precedence:
 
@@ -403,7 +404,7 @@ class FrameSource:
             j = self._index(key)
             self._check_open()
             return self._read_file_frame(self._start + j)
-        return SourceView(self, self.frame_numbers[_positions(key, len(self))])
+        return SourceView(self, _select(range(self._start, self._stop), key))
 
     def __iter__(self):
         self._check_open()
@@ -480,6 +481,17 @@ def _positions(key, n):
     return np.where(idx < 0, idx + n, idx).astype(np.int64)
 
 
+def _select(frames, key):
+    """The file frames of ``frames`` (a range or an int array) that ``key`` selects: a
+    slice of a range is a range (its size does not grow with its length), anything else
+    an int array."""
+    if not isinstance(frames, range):
+        return frames[_positions(key, len(frames))]
+    if isinstance(key, slice):
+        return frames[key]
+    return frames.start + frames.step * _positions(key, len(frames))
+
+
 class SourceView:
     """Some frames of a :class:`FrameSource`, chosen by a slice or indices, read lazily.
 
@@ -508,8 +520,12 @@ class SourceView:
 
     def __init__(self, source, frame_numbers):
         self.source = source
-        frames = np.array(frame_numbers, dtype=np.int64)
-        frames.flags.writeable = False
+        if isinstance(frame_numbers, range):
+            # a slice's frames as a range: a view's size does not grow with its length
+            frames = frame_numbers
+        else:
+            frames = np.array(frame_numbers, dtype=np.int64)
+            frames.flags.writeable = False
         self._frames = frames
         self._times_cache = None
 
@@ -536,14 +552,18 @@ class SourceView:
 
     @property
     def frame_numbers(self):
-        """0-based file index of every frame of the view."""
-        return self._frames
+        """0-based file index of every frame of the view (a read-only int64 array)."""
+        frames = self._frames
+        if isinstance(frames, range):
+            frames = np.arange(frames.start, frames.stop, frames.step, dtype=np.int64)
+            frames.flags.writeable = False
+        return frames
 
     @property
     def times_s(self):
         """Time (s) of every frame of the view, relative to the file's first frame."""
         if self._times_cache is None:
-            self._times_cache = self.source._times_of(self._frames)
+            self._times_cache = self.source._times_of(self.frame_numbers)
         return self._times_cache
 
     def time_s(self, i):
@@ -555,12 +575,16 @@ class SourceView:
             k = self._frames[_index(key, len(self))]
             self.source._check_open()
             return self.source._read_file_frame(int(k))
-        return SourceView(self.source, self._frames[_positions(key, len(self))])
+        return SourceView(self.source, _select(self._frames, key))
 
     def __iter__(self):
         self.source._check_open()
         frames = self._frames
-        if len(frames) > 1 and np.all(np.diff(frames) == 1):
+        if isinstance(frames, range):
+            consecutive = frames.step == 1
+        else:
+            consecutive = bool(np.all(np.diff(frames) == 1))
+        if len(frames) > 1 and consecutive:
             # a run of consecutive frames: decoded as the source streams its own
             yield from self.source._iter_file(int(frames[0]), int(frames[-1]) + 1)
             return
@@ -572,11 +596,13 @@ class SourceView:
         """The source's :meth:`FrameSource.to_dict`, with the view's frame count and its
         ``frame_numbers``."""
         return {**self.source.to_dict(), "frames": len(self),
-                "frame_numbers": self._frames.tolist()}
+                "frame_numbers": [int(k) for k in self._frames]}
 
     def __repr__(self):
-        shown = self._frames.tolist()
-        if len(shown) > 6:
-            shown = shown[:3] + ["..."] + shown[-2:]
+        frames = self._frames
+        if len(frames) > 6:
+            shown = [int(k) for k in frames[:3]] + ["..."] + [int(k) for k in frames[-2:]]
+        else:
+            shown = [int(k) for k in frames]
         return (f"<SourceView of {type(self.source).__name__} {str(self.path)!r}: "
                 f"{len(self)} frames, file frames [{', '.join(map(str, shown))}]>")
