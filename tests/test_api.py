@@ -15,7 +15,8 @@ import pandas as pd
 import pytest
 from synth_runs import synth_run, truth
 
-from vidtrack import RunFit, TrackFlag, fit_run, open_source, read_tracks, track
+from vidtrack import (RunFit, TrackFlag, fit_run, flag_names, open_source, read_tracks,
+                      track)
 from vidtrack.errors import FitError
 from vidtrack.scene import load_scene
 
@@ -87,6 +88,7 @@ def test_the_tracks_are_tracks_h5_s_with_a_frame_column(fitted):
         names = ["|".join(f.name for f in TrackFlag if f in TrackFlag(int(v)))
                  for v in data["flags"]]
         assert names == rows["flag_names"].fillna("").tolist()
+        assert flag_names(data["flags"]) == names
         assert (data["flags"] & TrackFlag.PRE_RELEASE).any()   # masks a column
     world = fit.world
     assert list(world.columns[:5]) == ["frame", "t_s", "x_m", "y_m", "z_m"]
@@ -96,6 +98,26 @@ def test_the_tracks_are_tracks_h5_s_with_a_frame_column(fitted):
     fps = scene.views["front"].fps
     np.testing.assert_allclose(world["t_s"], world["frame"] / fps - t0, rtol=0, atol=1e-9)
     assert (read_tracks(out / "tracks.h5").world.data["frame"] == world["frame"]).all()
+
+
+def test_the_frame_columns_are_the_source_s_frames(fitted):
+    run, fit = fitted
+    scene = load_scene(run)
+    for name, data in fit.tracks.items():
+        view = scene.views[name]
+        with open_source(view.source, fps=view.fps, frames=view.frames) as src:
+            np.testing.assert_array_equal(data["frame"], src.frame_numbers)
+            np.testing.assert_allclose(data["t_s"], src.times_s, rtol=0, atol=1e-12)
+    # the world track's rows are frames of its reference view, in order, and each row's
+    # time is that frame's on the reference clock less its t = 0
+    world = fit.world
+    ref = fit["world"]["reference"]
+    ref_track = fit.tracks[ref].set_index("frame")
+    assert world["frame"].isin(ref_track.index).all()
+    assert (np.diff(world["frame"]) > 0).all()
+    t0 = fit["world"]["t0_s"][ref]
+    np.testing.assert_allclose(world["t_s"], ref_track.loc[world["frame"], "t_s"] - t0,
+                               rtol=0, atol=1e-9)
 
 
 def test_a_second_call_reuses_and_fit_json_is_unchanged(fitted):

@@ -56,7 +56,7 @@ __version__ = "0.2.0"
 _EXPORTS = {
     "vidtrack.errors": ("VidtrackError",),
     "vidtrack.footage.sources": ("open_source",),
-    "vidtrack.track._flags": ("TrackFlag",),
+    "vidtrack.track._flags": ("TrackFlag", "flag_names"),
     "vidtrack.run.tracks_file": ("read_tracks",),
     "vidtrack.run.pipeline": ("fit_run", "fit_runs", "FitOptions"),
     "vidtrack.run.results": ("RunFit",),

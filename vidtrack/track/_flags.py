@@ -8,17 +8,19 @@ number in tracks.csv); :class:`TrackFlag` reads such a value back as names:
 <TrackFlag.MERGED|LOST: 12>
 >>> TrackFlag.LOST in TrackFlag(12)
 True
+>>> flag_names([0, 12, 36])
+['', 'MERGED|LOST', 'MERGED|PRE_RELEASE']
 
 The tracker's own code uses the module's int constants (``BORDER``, ...): numpy keeps an
 int32 array int32 under ``|`` with a plain int, not with an int subclass.
 
-Internal to :mod:`vidtrack.track`; users reach :class:`TrackFlag` as
-``vidtrack.TrackFlag``.
+Internal to :mod:`vidtrack.track`; users reach :class:`TrackFlag` and :func:`flag_names`
+as ``vidtrack.TrackFlag`` and ``vidtrack.flag_names``.
 """
 
 import enum
 
-__all__ = ["TrackFlag", "FLAGS", "BORDER", "BLADE", "MERGED", "LOST", "PREDICTED",
+__all__ = ["TrackFlag", "flag_names", "FLAGS", "BORDER", "BLADE", "MERGED", "LOST", "PREDICTED",
            "PRE_RELEASE", "OUTLIER", "APPEARANCE", "EXCLUDED"]
 
 
@@ -66,3 +68,56 @@ EXCLUDED = TrackFlag.EXCLUDED.value
 
 #: Flag names by bit value (plain ints, lower case).
 FLAGS = {flag.value: flag.name.lower() for flag in TrackFlag}
+
+
+def flag_names(values):
+    """The names of the bits set in each value of a flags column, as tracks.csv spells them.
+
+    Parameters
+    ----------
+    values : iterable of int
+        Flags values: a track's ``flags`` column, an array or a list (whole-number floats,
+        as pandas reads a column with gaps, are taken as their integer).
+
+    Returns
+    -------
+    list of str
+        One string per value: the names of its bits in bit order, ``|``-joined
+        (``"MERGED|PRE_RELEASE"`` for 36), ``""`` for 0; a bit no flag has is written as
+        its value (``"LOST|512"``).
+
+    Raises
+    ------
+    ValueError
+        A negative value, or one that is not a whole number.
+
+    Examples
+    --------
+    >>> flag_names([0, 12, 36])
+    ['', 'MERGED|LOST', 'MERGED|PRE_RELEASE']
+    """
+    cache = {}
+    out = []
+    for value in values:
+        try:
+            text = cache.get(value)
+        except TypeError:                   # unhashable: not a number
+            text = _names_of(value)
+        if text is None:
+            text = cache[value] = _names_of(value)
+        out.append(text)
+    return out
+
+
+def _names_of(value):
+    try:
+        bits = int(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"a flags value must be a whole number >= 0, got {value!r}") from None
+    if bits != value or bits < 0:
+        raise ValueError(f"a flags value must be a whole number >= 0, got {value!r}")
+    names = [flag.name for flag in TrackFlag if bits & flag.value]
+    rest = bits & ~sum(FLAGS)
+    if rest:
+        names.append(str(rest))
+    return "|".join(names)
