@@ -780,7 +780,7 @@ def test_a_dark_ball_with_a_highlight_is_measured_whole():
         body["obj_level"] = body["body_level"]
         got = [measure_frame(frame, detector.bg, detector.sigma, x, Shape(*sp),
                              TrackerSettings()) for x in (body, det)]
-        errs.append([np.hypot(g[0] - truth[0], g[1] - truth[1]) for g in got])
+        errs.append([np.hypot(g.u - truth[0], g.v - truth[1]) for g in got])
         print(f"\nhighlight {off * 1.28:.1f} px from the centre: body and highlight "
               f"{errs[-1][0]:.3f} px off, bounded differences {errs[-1][1]:.3f}")
     (inside, inside_bounded), (near, near_bounded) = errs

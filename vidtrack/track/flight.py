@@ -226,14 +226,14 @@ def _measure(source, held, detector, detections, chain, shape, settings, cancel,
         if det["mixed"] and highlight:
             det = det.copy()
             det["obj_level"] = det["body_level"]
-        cu, cv, w, muu, mvv, muv, res, bar, shaded[i] = measure_frame(
-            frame, detector.bg, detector.sigma, det, shape, settings,
-            shadow_test=detector.shadow_test)
-        chain.u[i], chain.v[i] = cu, cv
-        moments[i] = (w, muu, mvv, muv)
-        residual[i] = res
-        if bar is not None:
-            bars[i] = bar
+        got = measure_frame(frame, detector.bg, detector.sigma, det, shape, settings,
+                            shadow_test=detector.shadow_test)
+        chain.u[i], chain.v[i] = got.u, got.v
+        moments[i] = (got.weight, got.muu, got.mvv, got.muv)
+        residual[i] = got.residual
+        shaded[i] = got.shaded
+        if got.bar is not None:
+            bars[i] = got.bar
         if i >= chain.frames[-1]:
             break
     return moments, residual, bars, shaded

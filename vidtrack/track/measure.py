@@ -16,6 +16,8 @@ kernel) that lies outside the kernel: 0 for the object alone, large where someth
 touches it. :mod:`vidtrack.track.flag` tests it against the chain's clean frames.
 """
 
+from typing import NamedTuple
+
 import cv2
 import numpy as np
 
@@ -24,7 +26,7 @@ from vidtrack.track.ellipse import fit_ellipse
 from vidtrack.track.rod import fit_rod
 from vidtrack.track.path import robust_scale
 
-__all__ = ["Shape", "measure_frame", "fit_shape", "SHAPE_FRAMES", "rod_at", "chain_shape",
+__all__ = ["Shape", "Measured", "measure_frame", "fit_shape", "SHAPE_FRAMES", "rod_at", "chain_shape",
            "has_highlight", "BAR_COLUMNS", "bar_moments"]
 
 #: The per-frame bar of a rod (:func:`measure_frame`): half length, half width (px),
@@ -48,6 +50,28 @@ NEAR_KERNELS = 2.0
 #: bear) is measured by the bar fitted to it (:mod:`vidtrack.track.rod`): the pixels of
 #: what touches it, inside its kernel too, weigh little.
 ROD_ASPECT = 3.0
+
+
+class Measured(NamedTuple):
+    """One frame of the object measured (:func:`measure_frame`)."""
+
+    #: The centroid (px).
+    u: float
+    v: float
+    #: The weight inside the kernel.
+    weight: float
+    #: Its second central moments (px^2).
+    muu: float
+    mvv: float
+    muv: float
+    #: The share of the weight near the object that lies outside its kernel.
+    residual: float
+    #: For an object measured by its model (a rod's bar, a compact object's ellipse):
+    #: ``(half length, half width, coverage, misfit, angle, blurs)``
+    #: (:data:`BAR_COLUMNS`), else None.
+    bar: object
+    #: Pixels touching the object that the shadow test took for its shadow (left out).
+    shaded: int
 
 
 class Shape:
@@ -109,11 +133,11 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
 
     Returns
     -------
-    (u, v, weight, muu, mvv, muv, residual, bar, shaded)
+    Measured
         The centroid (px), the weight inside the kernel, its second central moments
         (px^2), the residual share, for an object measured by its model (a rod's
         bar, a compact object's ellipse) the model's ``(half length, half width,
-        coverage, misfit, angle)`` (px, px, 1, 1, rad from +u towards +v; see
+        coverage, misfit, angle, blurs)`` (px, px, 1, 1, rad from +u towards +v, px; see
         :func:`vidtrack.track.rod.fit_rod`), else None, and how many pixels touching
         the object the shadow test took for its shadow (left out).
     """
@@ -125,7 +149,7 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     shaded = _shaded(shade, grown)
     ys, xs = nonzero_2d(grown)
     if ys.size == 0:
-        return cu, cv, 0.0, np.nan, np.nan, np.nan, np.nan, None, shaded
+        return Measured(cu, cv, 0.0, np.nan, np.nan, np.nan, np.nan, None, shaded)
     level = float(det["level"]) if np.isfinite(det["level"]) and det["level"] > 0 else 1.0
     obj, mixed = float(det["obj_level"]), bool(det["mixed"])
     grow = settings.k_grow * sg
@@ -168,8 +192,8 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     wi = w * inside
     sw = float(wi.sum())
     if sw <= 0:
-        return (float(det["u"]), float(det["v"]), 0.0, np.nan, np.nan, np.nan, np.nan, None,
-                shaded)
+        return Measured(float(det["u"]), float(det["v"]), 0.0, np.nan, np.nan, np.nan, np.nan,
+                        None, shaded)
     eu, ev = x - cu, y - cv
     c, s = np.cos(theta), np.sin(theta)
     m2 = ((eu * c + ev * s) / a) ** 2 + ((-eu * s + ev * c) / b) ** 2
@@ -209,7 +233,7 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     muu = float(np.sum(wi * eu * eu) / sw)
     mvv = float(np.sum(wi * ev * ev) / sw)
     muv = float(np.sum(wi * eu * ev) / sw)
-    return cu, cv, sw, muu, mvv, muv, residual, bar, shaded
+    return Measured(cu, cv, sw, muu, mvv, muv, residual, bar, shaded)
 
 
 #: The object's shape is measured by its model in at most this many of its chain's
