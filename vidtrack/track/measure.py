@@ -26,8 +26,8 @@ from vidtrack.track.ellipse import fit_ellipse
 from vidtrack.track.rod import fit_rod
 from vidtrack.track.path import robust_scale
 
-__all__ = ["Shape", "Measured", "measure_frame", "fit_shape", "SHAPE_FRAMES", "rod_at", "chain_shape",
-           "has_highlight", "BAR_COLUMNS", "bar_moments"]
+__all__ = ["Shape", "Measured", "measure_frame", "fit_shape", "SHAPE_FRAMES", "rod_at",
+           "chain_shape", "has_highlight", "BAR_COLUMNS", "bar_moments"]
 
 #: The per-frame bar of a rod (:func:`measure_frame`): half length, half width (px),
 #: coverage, misfit, angle (rad), blurs across and along (px).
@@ -438,9 +438,9 @@ def _highlight_interior(d, bg, grow, obj, ys, xs, w, core):
     body beyond ``grow``) and the pixels beside it (3 x 3: where the highlight's blur
     cancels the body's contrast) cover fully inside the convex hull of its core (the
     pixels its body covers at least ``core``, ``highlight_core``: a dimmer object
-    touching it is not in it); a highlight's pixel outside it is read against the highlight's own level
-    (the 90th percentile of its ``|d|``). None where there is no highlight or no
-    core."""
+    touching it is not in it); a highlight's pixel outside it is read against the
+    highlight's own level (the 90th percentile of its ``|d|``). None where there is no
+    highlight or no core."""
     # (of the other polarity than the body against the background under it: a grey
     # object over a wall and a floor is of one level, darker than the one and lighter
     # than the other)
