@@ -36,6 +36,7 @@ that pixel in that frame is the object, whatever else moves.
 import numpy as np
 
 from vidtrack.errors import TrackError
+from vidtrack.track.measure import moment_axes
 from vidtrack.track.path import extrapolate, local_quadratic
 
 __all__ = ["Chain", "grow", "choose", "flight_segment", "mark_merged"]
@@ -94,10 +95,9 @@ class Chain:
         self.level[i] = d["level"]
         self.shadow[i] = d["shadow"]
         self.shadow_seen[i] = d["shadow"] and d["textured"]
-        half = 0.5 * (float(d["muu"]) + float(d["mvv"]))
-        root = float(np.hypot(0.5 * (float(d["muu"]) - float(d["mvv"])), float(d["muv"])))
-        self.major[i] = np.sqrt(max(half + root, 0.0))
-        self.minor[i] = np.sqrt(max(half - root, 0.0))
+        _angle, along, across = moment_axes(float(d["muu"]), float(d["mvv"]),
+                                            float(d["muv"]))
+        self.major[i], self.minor[i] = np.sqrt(along), np.sqrt(across)
 
     def take(self, i, j, detections, at=None):
         """Frame position ``i`` takes its detection ``j`` (at the point ``at``, default

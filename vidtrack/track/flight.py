@@ -35,7 +35,8 @@ from vidtrack.track.flag import REASON_COLUMN, bridge_gaps, judge, reason_codes
 from vidtrack.track.joined import follow_back
 from vidtrack.track.link import link
 from vidtrack.track.measure import (BAR_COLUMNS, bar_moments, chain_shape, has_highlight,
-                                    is_rod, measure_frame, fit_shape, SHAPE_FRAMES)
+                                    is_rod, measure_frame, fit_shape, moment_axes,
+                                    SHAPE_FRAMES)
 from vidtrack.track.rod import END_COLUMNS, MIN_LENGTH_PX
 from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
@@ -167,11 +168,8 @@ def _over(chain, shape, mask, settings):
 def _bar_axes(muu, mvv, muv):
     """The angle (rad from +u towards +v), length and width (px) of the uniform
     rectangle of second central moments ``muu, mvv, muv`` (px^2)."""
-    angle = 0.5 * np.arctan2(2.0 * muv, muu - mvv)
-    half = np.hypot(0.5 * (muu - mvv), muv)
-    length = np.sqrt(12.0 * max(0.5 * (muu + mvv) + half, 0.0))
-    width = np.sqrt(12.0 * max(0.5 * (muu + mvv) - half, 0.0))
-    return angle, length, width
+    angle, along, across = moment_axes(muu, mvv, muv)
+    return angle, np.sqrt(12.0 * along), np.sqrt(12.0 * across)
 
 
 def _covers(mask, u, v, angle, length, width):

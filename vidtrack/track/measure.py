@@ -27,7 +27,7 @@ from vidtrack.track.rod import fit_rod
 from vidtrack.track.path import robust_scale
 
 __all__ = ["Shape", "Measured", "measure_frame", "fit_shape", "SHAPE_FRAMES", "rod_at",
-           "chain_shape", "has_highlight", "BAR_COLUMNS", "bar_moments"]
+           "chain_shape", "has_highlight", "BAR_COLUMNS", "bar_moments", "moment_axes"]
 
 #: The per-frame bar of a rod (:func:`measure_frame`): half length, half width (px),
 #: coverage, misfit, angle (rad), blurs across and along (px).
@@ -296,6 +296,16 @@ def bar_moments(bar):
     along, across = (2.0 * h) ** 2 / 12.0, (2.0 * w) ** 2 / 12.0
     return (4.0 * a * h * w, along * c * c + across * s * s,
             along * s * s + across * c * c, (along - across) * c * s)
+
+
+def moment_axes(muu, mvv, muv):
+    """The angle (rad from +u towards +v) of the major axis of second central moments
+    ``muu, mvv, muv`` (px^2), and the variances along the major and minor axes (px^2,
+    at least 0): :func:`bar_moments` the other way."""
+    half = 0.5 * (muu + mvv)
+    root = np.hypot(0.5 * (muu - mvv), muv)
+    return (0.5 * np.arctan2(2.0 * muv, muu - mvv), max(half + root, 0.0),
+            max(half - root, 0.0))
 
 
 def _like(fitted, shape):
