@@ -172,6 +172,17 @@ def test_in_a_channel_where_it_differs_it_is_tracked_to_half_a_pixel(colour, cha
     _check(tr)
 
 
+def test_a_ball_darker_by_a_shadows_factor_is_taken_when_nothing_else_flies(colour):
+    """In the green channel the ball darkens the plain board by a factor of 0.67, as a
+    shadow would, with no texture under it to tell: with nothing else in flight to cast
+    it, the flight tracker takes it for the object and says why (it stopped before:
+    "never appears in flight")."""
+    with open_source(colour[0], fps=FPS, channel="green") as src:
+        tr = track(src, view="front", engine="flight")
+    assert any(n.startswith("shadow-like:") for n in tr.notes), tr.notes
+    _check(tr)
+
+
 def test_auto_chooses_red_and_says_why(colour):
     path, frames = colour
     tr, notes, got = _track(path, "auto")

@@ -23,14 +23,17 @@ drag) times the share of that span's frames that a local quadratic through their
 neighbours predicts within ``flight_residual_px`` (or ``flight_residual_sizes`` of its
 size), seen whole, not shadow-like (:mod:`vidtrack.track.detect`) and of the flight's
 own contrast (within ``LEVEL_RATIO``: a chain that went over to a dimmer rod where the
-two crossed keeps only the frames of one of them); a chain whose
-flight is shorter than ``min_travel_sizes`` of its own sizes scores nothing (something
-resting, rocking in place, a person shifting, is not thrown). The chain with the highest score is the object. When a
-second chain seen at the same time (in half its frames or more), not a shadow and
-sharing no detection, scores within ``ambiguity_ratio`` of it with a signal (summed
-weight) within the same ratio, the choice is the user's: :class:`~vidtrack.errors.TrackError` lists both with the
-``target`` line that picks each. With a ``target``, the chain grown from the detection at
-that pixel in that frame is the object, whatever else moves.
+two crossed keeps only the frames of one of them); a chain whose flight is shorter than
+``min_travel_sizes`` of its own sizes scores nothing (something resting, rocking in
+place, a person shifting, is not thrown). Where no chain scores and some are shadow-like
+(a dark object on a plain wall: no texture tells it from a shadow), they are scored with
+their shadow-like frames counted: nothing else flies to cast them. The chain with the
+highest score is the object. When a second chain seen at the same time (in half its
+frames or more), not a shadow and sharing no detection, scores within
+``ambiguity_ratio`` of it with a signal (summed weight) within the same ratio, the
+choice is the user's: :class:`~vidtrack.errors.TrackError` lists both with the
+``target`` line that picks each. With a ``target``, the chain grown from the detection
+at that pixel in that frame is the object, whatever else moves.
 """
 
 import numpy as np
@@ -66,8 +69,9 @@ SEEDS_MAX = 16
 class Chain:
     """A chain: ``pick[i]`` is the index of its detection in frame position ``i`` (-1:
     none), with its positions, sizes, shadow marks, weights and the spreads along its
-    major and minor axes (px) per frame (NaN, False and 0 where it has none), and its
-    ``merged`` frames (:func:`mark_merged`)."""
+    major and minor axes (px) per frame (NaN, False and 0 where it has none), its
+    ``merged`` frames (:func:`mark_merged`), and whether it was taken although
+    shadow-like (``shadow_like``: no other chain in flight, :func:`choose`)."""
 
     def __init__(self, pick, detections):
         self.pick = pick
@@ -87,6 +91,7 @@ class Chain:
         self.score = 0.0
         self.explained = np.zeros(n, bool)
         self.merged = np.zeros(n, bool)
+        self.shadow_like = False
 
     def _take(self, i, d):
         self.u[i], self.v[i] = d["u"], d["v"]
@@ -287,15 +292,16 @@ def _grow_span(t, y, ok, mid, t0, t1, tol, settings, through=None):
     return lo, hi, length
 
 
-def _score(chain, settings, detections):
+def _score(chain, settings, detections, shadows=False):
     """The chain's flight score (px); sets ``explained``.
 
     A frame is explained when the local quadratic path through its neighbours predicts
     it, it is whole in view (a detection cut by the frame's border is not measured), and
     it lies in the chain's flight segment (:func:`flight_segment`); the score is the
     length of the flight segment's path, times the share of its frames explained and not
-    shadow-like. A thrown object travels far along one smooth path; something resting,
-    rocking or shifting in place, a shadow, a blade going round, does not.
+    shadow-like (with ``shadows``, shadow-like or not). A thrown object travels far
+    along one smooth path; something resting, rocking or shifting in place, a shadow, a
+    blade going round, does not.
     """
     idx = chain.frames
     if idx.size < 3:
@@ -321,7 +327,8 @@ def _score(chain, settings, detections):
     # the two crossed keeps the frames of its own)
     lev = np.log(np.maximum(chain.level[idx], 1e-3))
     alike = np.abs(lev - np.median(lev[seg])) <= np.log(LEVEL_RATIO)
-    good = (np.count_nonzero(seg & alike & ~chain.shadow[idx])
+    lit = np.ones(idx.size, bool) if shadows else ~chain.shadow[idx]
+    good = (np.count_nonzero(seg & alike & lit)
             / max(np.count_nonzero(inside & alone), 1))
     return float(length * good)
 
@@ -517,6 +524,12 @@ def choose(detections, tracklets, settings, *, target=None, frame_numbers=None,
                    > MAJORITY * min(c.frames.size, chain.frames.size) for c in chains):
             chains.append(chain)
     chains = _join(chains, detections, settings)
+    if chains and not any(c.score > 0 for c in chains):
+        # (a dark object on a plain wall is shadow-like: with nothing else in flight to
+        # cast it, the flight of a shadow-like chain is the object's)
+        for chain in chains:
+            chain.score = _score(chain, settings, detections, shadows=True)
+            chain.shadow_like = chain.score > 0
     chains = [c for c in chains if c.score > 0]
     if not chains:
         moving = sum(1 for tr in tracklets if len(tr) >= settings.link_min_frames)

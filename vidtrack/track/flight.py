@@ -457,6 +457,10 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
                      f"by a smooth factor, the wall's texture kept) and left out in "
                      f"{np.count_nonzero(has)} of its {has.size} frames (median "
                      f"{np.median(shaded[chain.frames][has]):.0f} px)")
+    if chain.shadow_like:
+        notes.append("shadow-like: the object darkens the wall as a shadow would (a "
+                     "factor no darker than shadow_ratio_min, no texture under it to "
+                     "tell); taken for the object since nothing else is in flight")
     if bridged:
         notes.append(f"{bridged} frames without a detection inside the object's chain: "
                      f"placed on the path through the clean frames either side "
