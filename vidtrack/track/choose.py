@@ -40,7 +40,7 @@ import numpy as np
 
 from vidtrack.errors import TrackError
 from vidtrack.track.measure import moment_axes
-from vidtrack.track.path import extrapolate, local_quadratic
+from vidtrack.track.path import extrapolate, local_quadratic, runs
 
 __all__ = ["Chain", "grow", "choose", "flight_segment", "mark_merged"]
 
@@ -333,12 +333,6 @@ def _score(chain, settings, detections, shadows=False):
     return float(length * good)
 
 
-def _runs(mask):
-    """(start, stop) of each run of True in ``mask`` (stop exclusive)."""
-    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(np.int8), 0]))
-    return list(zip(edges[::2], edges[1::2]))
-
-
 def mark_merged(chains, settings):
     """Each chain's ``merged`` frames: those whose detection another chain takes too,
     in a run of such frames that the other chain is seen apart from it on both sides of
@@ -360,7 +354,7 @@ def mark_merged(chains, settings):
                 reach = np.sqrt(3.0) * (c.major + other.major)
                 apart = ((c.pick >= 0) & (other.pick >= 0) & (other.pick != c.pick)
                          & (np.hypot(c.u - other.u, c.v - other.v) > reach))
-            for lo, hi in _runs(same):
+            for lo, hi in runs(same):
                 if (np.count_nonzero(apart[:lo]) >= settings.link_min_frames
                         and np.count_nonzero(apart[hi:]) >= settings.link_min_frames):
                     c.merged[lo:hi] = True

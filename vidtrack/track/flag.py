@@ -50,7 +50,7 @@ from vidtrack.track._flags import (APPEARANCE, BORDER, LOST, MERGED, OUTLIER, PR
 from vidtrack.track.choose import MAJORITY
 from vidtrack.track.joined import size_z
 from vidtrack.track.measure import residual_outliers
-from vidtrack.track.path import local_quadratic, robust_scale
+from vidtrack.track.path import local_quadratic, robust_scale, runs
 from vidtrack.track.release import find_release as release_knot
 
 __all__ = ["judge", "REASONS", "REASON_COLUMN", "reason_codes"]
@@ -116,6 +116,12 @@ def _at_rest(idx, uv, scatter, settings):
 #: ``path_window`` 6: 4.6; two frames: 33); else it may be left out, not taken in.
 PREDICTION_H_MAX = 5.0
 
+#: A run of fewer than this many frames of the object's own size between frames
+#: flagged for their appearance is not trusted at first by the path test (it must pass
+#: it): the cause that flagged its neighbours (part hidden, something touching) lasts,
+#: and frames it moved alike predict each other.
+CLEAN_RUN_MIN = 3
+
 
 def _path_outliers(idx, uv, settings, start):
     """Frames (positions in idx) off their neighbours' path, and the scatter (px);
@@ -132,6 +138,14 @@ def _path_outliers(idx, uv, settings, start):
     for a frame it cannot predict) the least, that its own test passes.
     """
     ok = start.copy()
+    # (a short run of frames between frames flagged for their appearance is tested
+    # before it is trusted)
+    short = np.zeros(ok.size, bool)
+    for a, b in runs(ok):
+        if b - a < CLEAN_RUN_MIN and (a > 0 or b < ok.size):
+            short[a:b] = True
+    if np.count_nonzero(ok & ~short) >= 3:
+        ok &= ~short
     # (a frame the others predict only from afar, at an end beyond a gap, cannot be
     # tested against them: it is not trusted at first either)
     _pred, _acc, h, _ha = local_quadratic(idx, uv, settings.path_window,

@@ -12,7 +12,7 @@ import numpy as np
 
 from vidtrack.track.background import MAD_TO_SIGMA
 
-__all__ = ["local_quadratic", "robust_scale", "extrapolate", "MAD_TO_SIGMA"]
+__all__ = ["local_quadratic", "robust_scale", "extrapolate", "runs", "MAD_TO_SIGMA"]
 
 
 def robust_scale(x, *, floor=0.0):
@@ -22,6 +22,12 @@ def robust_scale(x, *, floor=0.0):
     if x.size == 0:
         return float(floor)
     return max(float(MAD_TO_SIGMA * np.median(np.abs(x - np.median(x)))), float(floor))
+
+
+def runs(mask):
+    """(start, stop) of each run of True in ``mask`` (stop exclusive)."""
+    edges = np.flatnonzero(np.diff(np.r_[0, np.asarray(mask).astype(np.int8), 0]))
+    return list(zip(edges[::2], edges[1::2]))
 
 
 def extrapolate(t, u, v, at):
