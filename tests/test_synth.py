@@ -519,3 +519,53 @@ def test_sample_run_is_what_its_recorded_command_makes():
     assert 100 < top < 250 and y[-1] < y[top] - 0.3
     size = sum(p.stat().st_size for p in run.iterdir())
     assert size < 6e6
+
+
+# ---------------------------------------------------------------------------- k_spread
+
+def test_k_spread_draws_each_throws_k_about_k():
+    from vidtrack.synth.motion import _make_throws
+
+    k = np.array((2.2, 2.5, 4.6, 21.3))
+    spread = np.array((0.02, 0.0, 0.1, 0.05))
+    ratios = np.array([[t.k for t in _make_throws(SynthSpec(k=tuple(k), throws=99, seed=s,
+                                                            k_spread=tuple(spread)))]
+                       for s in range(4)]).reshape(-1, 4) / k - 1.0
+    assert np.all(ratios[:, 1] == 0)                        # a zero spread keeps k exactly
+    sd = ratios.std(axis=0, ddof=1)
+    # 396 draws: the sample sd within 20 % of the true one (about 5 of its own sds)
+    np.testing.assert_allclose(sd[[0, 2, 3]], spread[[0, 2, 3]], rtol=0.2)
+    assert abs(np.corrcoef(ratios[:, 0], ratios[:, 2])[0, 1]) < 0.25   # independent draws
+    # a single throw is spread too; without k_spread it is rendered at k as before
+    one = _make_throws(SynthSpec(k=tuple(k), k_spread=(0.05,) * 4))[0]
+    assert np.all(np.array(one.k) != k)
+    assert _make_throws(SynthSpec(k=tuple(k)))[0].k == tuple(k)
+    # throw_spread still spreads the release speed and direction of replicate throws
+    states = {t.state for t in _make_throws(SynthSpec(throws=3, k_spread=(0.0,) * 4))}
+    assert len(states) == 3
+    assert "k_spread" not in SynthSpec().to_dict()          # truth.json as before
+    for bad in ((0.1, 0.1, 0.1), (0.1, 0.1, 0.1, -0.01), (0.5,) * 4):
+        with pytest.raises(VidtrackError):
+            SynthSpec(k_spread=bad)
+
+
+def test_a_planned_run_folder_is_rendered_keeping_its_factors(tmp_path):
+    from vidtrack.scene_template import plan_scene_text
+
+    run = tmp_path / "runs" / "03"
+    run.mkdir(parents=True)
+    (run / "scene.toml").write_text(plan_scene_text({"n_rpm": 450.0, "vm_kmh": 3.6},
+                                                    folder=run), encoding="utf-8")
+    spec = SynthSpec(**dict(SMALL, frames=6, exposure_samples=1), views=("front",))
+    render_run(run, spec)
+    scene = load_scene(run)
+    assert scene.factors == {"n_rpm": 450, "vm_kmh": 3.6} and scene.run_name == "03"
+    assert "scene.toml" in (run / "vidtrack-synth.toml").read_text()
+    # a planned folder holding anything else is not synth's to write into
+    other = tmp_path / "runs" / "04"
+    other.mkdir()
+    (other / "scene.toml").write_text(plan_scene_text({"n_rpm": 650.0}, folder=other))
+    (other / "front.avi").write_bytes(b"footage")
+    with pytest.raises(VidtrackError, match="not empty"):
+        render_run(other, spec)
+    assert (other / "front.avi").read_bytes() == b"footage"

@@ -19,9 +19,9 @@ compression) from known coefficients, with ``truth.json`` beside it. The modules
 """
 
 from vidtrack.synth.motion import second_straw_state, straw_pose
-from vidtrack.synth.runs import SynthRun, render_run
+from vidtrack.synth.runs import SynthRun, check_out_dir, render_run
 from vidtrack.synth.spec import CODECS, FORMATS, VIEW_NAMES, SynthSpec
 from vidtrack.synth.truth import TRUTH_FILE, TRUTH_SCHEMA
 
-__all__ = ["SynthSpec", "SynthRun", "render_run", "VIEW_NAMES", "FORMATS", "CODECS",
-           "TRUTH_FILE", "TRUTH_SCHEMA", "straw_pose", "second_straw_state"]
+__all__ = ["SynthSpec", "SynthRun", "render_run", "check_out_dir", "VIEW_NAMES", "FORMATS",
+           "CODECS", "TRUTH_FILE", "TRUTH_SCHEMA", "straw_pose", "second_straw_state"]

@@ -51,8 +51,19 @@ def _matched_blade_rate(state):
     return (x0 * vy0 - y0 * vx0) / (x0 * x0 + y0 * y0)
 
 
+#: The smallest factor a random spread scales a k by (a k stays > 0).
+_MIN_K_FACTOR = 0.2
+
+
 def _make_throws(spec):
+    """The throws of a run: release state and k of each, spread at random (seeded).
+
+    With ``k_spread`` each throw's k is ``k * (1 + k_spread * N(0, 1))`` (one draw per
+    coefficient and throw, from a stream of its own), a single throw included;
+    ``throw_spread`` then spreads only the release speed and direction.
+    """
     rng = np.random.default_rng([spec.seed, 7])
+    rng_k = np.random.default_rng([spec.seed, 8])
     out = []
     for _ in range(spec.throws):
         state = np.asarray(spec.state, dtype=np.float64)
@@ -62,7 +73,11 @@ def _make_throws(spec):
             speed = math.hypot(state[3], state[4]) * (1.0 + e[0])
             angle = math.atan2(state[4], state[3]) + 0.5 * e[1]
             state[3], state[4] = speed * math.cos(angle), speed * math.sin(angle)
-            k = k * np.clip(1.0 + e[2:], 0.2, None)
+            if spec.k_spread is None:
+                k = k * np.clip(1.0 + e[2:], _MIN_K_FACTOR, None)
+        if spec.k_spread is not None:
+            e_k = rng_k.standard_normal(4) * np.asarray(spec.k_spread, dtype=np.float64)
+            k = k * np.clip(1.0 + e_k, _MIN_K_FACTOR, None)
         state_t = tuple(float(v) for v in state)
         blade = (_matched_blade_rate(state_t) if spec.blade_rpm is None
                  else spec.blade_rpm * math.pi / 30.0)

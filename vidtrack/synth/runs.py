@@ -38,7 +38,7 @@ from vidtrack.synth.spec import CAMERA_VIEW_NAMES, VIEW_NAMES, SynthSpec, _fail
 from vidtrack.synth.truth import (_CONVENTIONS, TRUTH_FILE, TRUTH_SCHEMA, _release_frame_of,
                                   _throw_truth, _truth_text, _view_truth)
 
-__all__ = ["SynthRun", "render_run"]
+__all__ = ["SynthRun", "render_run", "check_out_dir"]
 
 log = logging.getLogger(__name__)
 
@@ -93,11 +93,13 @@ class SynthRun:
                 "elapsed_s": self.elapsed_s}
 
 
-def _scene_dict(spec, views, run_name, release):
+def _scene_dict(spec, views, run_name, release, factors=None):
+    if factors is None:
+        factors = {"n_rpm": spec.n_rpm, "blade_angle_deg": spec.blade_angle_deg,
+                   "speed_kmh": spec.speed_kmh}
     out = {"schema": 1, "run": {"name": run_name},
-           "factors": {"n_rpm": _plain_number(spec.n_rpm),
-                       "blade_angle_deg": _plain_number(spec.blade_angle_deg),
-                       "speed_kmh": _plain_number(spec.speed_kmh)},
+           "factors": {name: value if isinstance(value, str) else _plain_number(value)
+                       for name, value in factors.items()},
            "physics": {"gravity_m_s2": spec.gravity_m_s2},
            "straw": {"cp_s_per_m": spec.cp_s_per_m},
            "machine": {"speed_kmh": spec.speed_kmh},
@@ -222,7 +224,8 @@ def _check_out(out_dir, force):
     it is removed before the new render starts (:func:`_leftovers`).
 
     Returns the set of top-level names a previous synthetic run left (from its marker),
-    empty for a new or empty folder.
+    ``{"scene.toml"}`` for a run folder `vidtrack design` planned, empty for a new or
+    empty folder.
     """
     from vidtrack._atomic import check_output
 
@@ -233,6 +236,8 @@ def _check_out(out_dir, force):
     present = sorted(p.name for p in out_dir.iterdir() if p.name not in stale)
     if not present:
         return set()
+    if present == ["scene.toml"] and _planned(out_dir / "scene.toml"):
+        return {"scene.toml"}
     shown = ", ".join(present[:5]) + (", ..." if len(present) > 5 else "")
     previous = _read_marker(out_dir)
     if previous is None:
@@ -244,6 +249,30 @@ def _check_out(out_dir, force):
         _fail(f"{out_dir}: the folder is not empty (holds {shown}); choose a new or "
               "empty folder, or pass --force to replace the synthetic run in it")
     return previous
+
+
+def _planned(path):
+    """True when ``path`` is the scene.toml of a run `vidtrack design` planned (no views
+    yet): synth renders the run into its folder, replacing it."""
+    from vidtrack.scene_template import PLAN_MARK
+
+    try:
+        with open(path, encoding="utf-8") as f:
+            first = f.readline().rstrip("\n")
+    except (OSError, UnicodeDecodeError):
+        return False
+    return first == PLAN_MARK and path.is_file() and not path.is_symlink()
+
+
+def _plan_factors(path):
+    """The ``[factors]`` of a planned run's scene.toml (empty when it has none)."""
+    import tomllib
+
+    try:
+        factors = tomllib.loads(path.read_text(encoding="utf-8")).get("factors")
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        _fail(f"{path}: cannot be read ({exc}); expected the scene.toml vidtrack design wrote")
+    return dict(factors) if isinstance(factors, dict) else {}
 
 
 def _top_names(spec):
@@ -265,6 +294,18 @@ def _check_clash(out_dir, spec, previous):
                   "output folder)")
 
 
+def check_out_dir(out_dir, spec, *, force=False):
+    """Refuse, before anything is rendered, a folder :func:`render_run` would refuse.
+
+    Raises
+    ------
+    VidtrackError
+        As :func:`render_run` for its ``out_dir`` and ``force``.
+    """
+    out_dir = Path(out_dir)
+    _check_clash(out_dir, spec, _check_out(out_dir, force))
+
+
 def _replaceable(names, previous):
     """Top-level entries replaced: what the previous render listed in its marker, the
     new render's entries, and ``vidtrack/`` (results computed from the old footage)."""
@@ -278,14 +319,15 @@ def _remove(path):
         path.unlink()
 
 
-def render_run(out_dir, spec=None, *, force=False, quiet=True):
+def render_run(out_dir, spec=None, *, force=False, quiet=True, factors=None):
     """Render a synthetic run folder with its ``truth.json``.
 
     Parameters
     ----------
     out_dir : str or pathlib.Path
         The run folder to write; created if missing. It must be empty unless
-        ``force``.
+        ``force``, or hold only the ``scene.toml`` of a run ``vidtrack design``
+        planned (no views yet), which the run's own replaces.
     spec : SynthSpec, optional
         All parameters (default ``SynthSpec()``).
     force : bool, keyword-only
@@ -297,6 +339,10 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
         refused, with or without ``force``.
     quiet : bool, keyword-only
         No progress bar.
+    factors : dict, optional, keyword-only
+        ``[factors]`` of the scene.toml written, by name (numbers in natural units, or
+        text); default those of the planned scene.toml ``out_dir`` holds, else the
+        spec's ``n_rpm``, ``blade_angle_deg`` and ``speed_kmh``.
 
     Returns
     -------
@@ -331,6 +377,8 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
     out_dir = Path(out_dir)
     previous = _check_out(out_dir, force)
     _check_clash(out_dir, spec, previous)
+    if factors is None and previous == {"scene.toml"} and _planned(out_dir / "scene.toml"):
+        factors = _plan_factors(out_dir / "scene.toml") or None
     run_name = spec.run_name or out_dir.resolve().name
 
     throws = _make_throws(spec)
@@ -413,7 +461,7 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True):
                           "k_mean": {f"k{i + 1}": float(v) for i, v in
                                      enumerate(k_all.mean(axis=0))}}
         write_text(stage / TRUTH_FILE, _truth_text(root_truth))
-        write_scene(stage, _scene_dict(spec, views, run_name, release))
+        write_scene(stage, _scene_dict(spec, views, run_name, release, factors))
         names = sorted(p.name for p in stage.iterdir())
         # the marker first, listing the old entries and the new: an interruption while
         # they are swapped leaves a folder that 'synth --force' may replace

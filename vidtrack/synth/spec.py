@@ -34,6 +34,11 @@ CAMERA_FIELDS = ("cameras", "camera_distance_m", "camera_angle_deg", "distortion
 #: rendered and described byte for byte as before they existed.
 DISTRACTOR_FIELDS = ("shadow", "rider", "straw_polarity", "highlight_grey", "person_at_side",
                      "shake", "post")
+#: SynthSpec fields left out of ``to_dict`` (and so of truth.json) while None: a run
+#: without them is described byte for byte as before they existed.
+OPTIONAL_FIELDS = ("k_spread",)
+#: Largest relative spread of a k between throws (``k_spread``, ``throw_spread``).
+MAX_RELATIVE_SPREAD = 0.3
 #: How the rider (a thinner, dimmer rod flying with the straw) moves: ``riding`` side by
 #: side with the straw, turning with it and sliding along it; ``crossing`` drifting
 #: across it at an angle, centres coinciding at mid-flight.
@@ -112,7 +117,11 @@ class SynthSpec:
         cine), 10 or 12 (cine) [8]; ``cine_packed`` pack 10/12-bit .cine pixels
         [False]; ``throws`` replicate throws (> 1 writes throws/01 ..) [1];
         ``throw_spread`` relative random spread of release speed, direction and
-        k1..k4 between replicate throws (not applied with one throw) [0.03]; ``seed``
+        k1..k4 between replicate throws (not applied with one throw) [0.03];
+        ``k_spread`` relative standard deviations (k1, k2, k3, k4) of each throw's k
+        about ``k``, drawn for every throw, a single one included; with it
+        ``throw_spread`` spreads only the release speed and direction (None: k spread
+        by ``throw_spread``) [None]; ``seed``
         [42]; ``run_name`` None = the output folder's name [None]; ``scale_in_scene``
         "ruler" | "m_per_px" ["ruler"]; ``sync_in_scene`` write each view's release
         frame as ``sync_frame`` (else "auto") [False].
@@ -205,6 +214,7 @@ class SynthSpec:
     cine_packed: bool = False
     throws: int = 1
     throw_spread: float = 0.03
+    k_spread: tuple | None = None
     seed: int = 42
     run_name: str | None = None
     scale_in_scene: str = "ruler"
@@ -291,7 +301,8 @@ class SynthSpec:
         return {f.name: _jsonable(getattr(self, f.name)) for f in fields(self)
                 if (self.cameras != "orthographic" or f.name not in CAMERA_FIELDS)
                 and (f.name not in DISTRACTOR_FIELDS
-                     or getattr(self, f.name) != f.default)}
+                     or getattr(self, f.name) != f.default)
+                and (f.name not in OPTIONAL_FIELDS or getattr(self, f.name) is not None)}
 
 
 def _jsonable(value):
@@ -440,7 +451,12 @@ def _validate(s):
     if s.cine_packed and not (s.output_format == "cine" and s.bit_depth in (10, 12)):
         _fail("cine_packed needs format cine with bit_depth 10 or 12")
     _number("throws", s.throws, ge=1, le=99, integer=True)
-    _number("throw_spread", s.throw_spread, ge=0, le=0.3)
+    _number("throw_spread", s.throw_spread, ge=0, le=MAX_RELATIVE_SPREAD)
+    if s.k_spread is not None:
+        spread = _vector("k_spread (relative sd of k1, k2, k3, k4)", s.k_spread, 4)
+        if np.any(spread < 0) or np.any(spread > MAX_RELATIVE_SPREAD):
+            _fail(f"k_spread must be 4 relative standard deviations in [0, "
+                  f"{MAX_RELATIVE_SPREAD}], got {list(s.k_spread)}")
     _number("seed", s.seed, ge=0, integer=True)
     if s.scale_in_scene not in ("ruler", "m_per_px"):
         _fail(f"scale_in_scene must be ruler or m_per_px, got {s.scale_in_scene!r}")
