@@ -28,6 +28,7 @@ from pathlib import Path
 
 from vidtrack._atomic import atomic_path
 from vidtrack.errors import SceneError
+from vidtrack.scene.folders import PLAN_MARK   # a planned run's first line (vidtrack design)
 
 __all__ = ["write_scene_template", "find_footage", "SceneTemplate", "FootageFacts",
            "VIDEO_SUFFIXES", "TODO", "plan_scene_text", "PLAN_MARK"]
@@ -419,11 +420,6 @@ def _template_text(run_dir, views, throws, *, plan=None):
 
 def _joined(lines):
     return "\n".join(line.rstrip() if line.strip() else "" for line in lines) + "\n"
-
-
-#: The first line of a scene.toml that `vidtrack design` writes: `vidtrack init` completes
-#: such a file (it has no views yet) instead of refusing it.
-PLAN_MARK = "# vidtrack scene, schema 1: a run of a designed experiment, not filmed yet."
 
 
 def plan_scene_text(factors, *, folder, run_name=None, about=()):

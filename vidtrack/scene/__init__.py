@@ -10,7 +10,8 @@ Every key is documented in ``docs/scene.md``. The modules:
 - ``read``: :func:`load_scene` and :func:`parse_scene`, every key checked;
 - ``write``: :func:`scene_to_toml` and :func:`write_scene`, checked the same way;
 - ``experiment_file``: :func:`load_experiment`, :class:`Experiment`, :class:`Factor`;
-- ``folders``: :func:`find_throw_dirs` (a run's replicate throws), natural order;
+- ``folders``: :func:`find_throw_dirs` (a run's replicate throws), natural order,
+  :func:`is_planned_scene` (a run `vidtrack design` planned, not filmed yet);
 - ``_check``: the key-by-key checker behind every one-line message.
 
 The public names below are importable from ``vidtrack.scene`` itself; each is loaded from
@@ -27,12 +28,13 @@ _EXPORTS = {
     "vidtrack.scene.write": ("scene_to_toml", "write_scene"),
     "vidtrack.scene.experiment_file": ("Experiment", "Factor", "load_experiment",
                                        "EXPERIMENT_FILE"),
-    "vidtrack.scene.folders": ("find_throw_dirs",),
+    "vidtrack.scene.folders": ("find_throw_dirs", "is_planned_scene", "PLAN_MARK"),
 }
 __getattr__, __dir__, _NAMES = lazy_exports(__name__, _EXPORTS)
 
 __all__ = [
     "Scene", "ViewSpec", "Ruler", "Physics", "Straw", "Experiment", "Factor",
     "load_scene", "parse_scene", "scene_to_toml", "write_scene", "load_experiment",
-    "find_throw_dirs", "SCENE_FILE", "EXPERIMENT_FILE", "SCHEMA", "VIEW_AXES",
+    "find_throw_dirs", "is_planned_scene", "PLAN_MARK", "SCENE_FILE", "EXPERIMENT_FILE",
+    "SCHEMA", "VIEW_AXES",
 ]

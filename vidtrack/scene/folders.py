@@ -1,4 +1,5 @@
-"""A run folder's replicate throws (:func:`find_throw_dirs`), and the natural order of names.
+"""A run folder's replicate throws (:func:`find_throw_dirs`), whether it is only planned
+(:func:`is_planned_scene`), and the natural order of names.
 
 A run with a ``throws/`` folder has one sub-folder per replicate throw (``throws/01``,
 ``throws/02``, ...), each with its own sources; without one, the run folder holds the one
@@ -10,6 +11,24 @@ import re
 from pathlib import Path
 
 from vidtrack.errors import SceneError
+
+
+#: The first line of a scene.toml that `vidtrack design` writes for a run not filmed yet (no
+#: views): `vidtrack init` completes such a file and `vidtrack synth` renders into its
+#: folder, where they refuse any other scene.toml.
+PLAN_MARK = "# vidtrack scene, schema 1: a run of a designed experiment, not filmed yet."
+
+
+def is_planned_scene(path):
+    """True when ``path`` is a file (not a link) whose first line is :data:`PLAN_MARK`."""
+    path = Path(path)
+    if not path.is_file() or path.is_symlink():
+        return False
+    try:
+        with open(path, encoding="utf-8") as f:
+            return f.readline().rstrip("\n") == PLAN_MARK
+    except (OSError, UnicodeDecodeError):
+        return False
 
 
 def _natural_key(text):

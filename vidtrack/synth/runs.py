@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from vidtrack.errors import DiskFullError
+from vidtrack.scene.folders import is_planned_scene
 
 from vidtrack.synth._renderer import _ViewRenderer, _ViewTrack
 from vidtrack.synth._views import _frame_times, _frame_view, _static_image
@@ -236,7 +237,7 @@ def _check_out(out_dir, force):
     present = sorted(p.name for p in out_dir.iterdir() if p.name not in stale)
     if not present:
         return set()
-    if present == ["scene.toml"] and _planned(out_dir / "scene.toml"):
+    if present == ["scene.toml"] and is_planned_scene(out_dir / "scene.toml"):
         return {"scene.toml"}
     shown = ", ".join(present[:5]) + (", ..." if len(present) > 5 else "")
     previous = _read_marker(out_dir)
@@ -249,19 +250,6 @@ def _check_out(out_dir, force):
         _fail(f"{out_dir}: the folder is not empty (holds {shown}); choose a new or "
               "empty folder, or pass --force to replace the synthetic run in it")
     return previous
-
-
-def _planned(path):
-    """True when ``path`` is the scene.toml of a run `vidtrack design` planned (no views
-    yet): synth renders the run into its folder, replacing it."""
-    from vidtrack.scene_template import PLAN_MARK
-
-    try:
-        with open(path, encoding="utf-8") as f:
-            first = f.readline().rstrip("\n")
-    except (OSError, UnicodeDecodeError):
-        return False
-    return first == PLAN_MARK and path.is_file() and not path.is_symlink()
 
 
 def _plan_factors(path):
@@ -377,7 +365,8 @@ def render_run(out_dir, spec=None, *, force=False, quiet=True, factors=None):
     out_dir = Path(out_dir)
     previous = _check_out(out_dir, force)
     _check_clash(out_dir, spec, previous)
-    if factors is None and previous == {"scene.toml"} and _planned(out_dir / "scene.toml"):
+    if factors is None and previous == {"scene.toml"} and is_planned_scene(
+            out_dir / "scene.toml"):
         factors = _plan_factors(out_dir / "scene.toml") or None
     run_name = spec.run_name or out_dir.resolve().name
 
