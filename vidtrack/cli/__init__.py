@@ -40,8 +40,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
 
 #: Subcommands in the order ``vidtrack --help`` lists them (module names in this package).
 COMMANDS = ("design", "init", "fit", "overlay", "report", "anova", "predict", "synth",
-            "frames",
-            "calibrate", "bench")
+            "score", "frames", "calibrate", "bench")
 
 
 def _load(name):

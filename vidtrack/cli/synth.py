@@ -13,6 +13,16 @@ release, motion blur, sensor noise and MJPG compression, and truth.json (every
 parameter; per view and frame: time, world position, true centroid in pixels, flags).
 Docs: docs/synth.md.
 
+A rehearsal of a designed experiment: with --regression (or --k-table) OUT is an
+experiment folder from 'vidtrack design', and every run is rendered into its folder at
+the k1..k4 the equations give at its setting (its [factors] kept in scene.toml), each
+throw's k drawn about them with --k-spread; then 'vidtrack report OUT' and
+'vidtrack score OUT'. Equations: a .toml file (a table [k1] .. [k4] of term =
+coefficient, terms by factor letter for coded levels, A, A:B, A^2, or by name for
+natural levels, n_rpm, n_rpm^2), a .csv (response,term,coefficient), the JSON of
+'vidtrack anova --json', or chen2018 (the published eqs. 20-23, natural units). Docs:
+docs/user-guide.md, "Rehearse it".
+
 examples:
   vidtrack synth run42
   vidtrack synth runs/small --size 320x240 --flight-s 0.2 --format png
@@ -22,7 +32,12 @@ examples:
   vidtrack synth runs/dark --straw-polarity dark --highlight 0.95
   vidtrack synth runs/persp --cameras perspective --camera-distance-m 1.5 --camera-angle-deg 70
   vidtrack synth runs/square --cameras square --camera-distance-m 1.5
+  vidtrack synth exp2 --regression chen2018 --throws 2 --k-spread 0.02 --size 300x140
+  vidtrack synth exp2 --k-table k_per_run.csv --seed 3
 """
+
+#: k1..k4 rendered when --k is not given.
+DEFAULT_K = (2.2, 2.5, 4.6, 21.3)
 
 
 def _floats(n, what):
@@ -75,7 +90,9 @@ def _axes(text):
 
 def add_arguments(parser):
     p = parser
-    p.add_argument("out", metavar="OUT", help="run folder to write (new or empty; see --force)")
+    p.add_argument("out", metavar="OUT",
+                   help="run folder to write (new or empty; see --force), or with "
+                        "--regression/--k-table the experiment folder whose runs to render")
     p.add_argument("--force", action="store_true",
                    help="write into a non-empty OUT that holds a synthetic run (its marker "
                         "vidtrack-synth.toml), replacing what that run wrote (scene.toml, "
@@ -83,8 +100,14 @@ def add_arguments(parser):
                         "the marker is never written into")
     p.add_argument("--json", action="store_true", help="print what was written as JSON")
     g = p.add_argument_group("throw")
-    g.add_argument("--k", type=_floats(4, "k1,k2,k3,k4"), default=(2.2, 2.5, 4.6, 21.3),
+    g.add_argument("--k", type=_floats(4, "k1,k2,k3,k4"), default=None,
                    help="k1,k2,k3,k4 (default 2.2,2.5,4.6,21.3)")
+    g.add_argument("--k-spread", type=_floats((1, 4), "relative sd of k, or of k1,k2,k3,k4"),
+                   default=None, metavar="SD[,SD,SD,SD]",
+                   help="each throw's k drawn about --k with this relative standard "
+                        "deviation (one for all, or one per k), a single throw included "
+                        "(default: replicate throws spread by 0.03; with --regression "
+                        "0.03), e.g. 0.02 or 0.02,0.02,0.03,0.05")
     g.add_argument("--cp", type=float, default=0.115, help="drag parameter Cp, s/m (0.115)")
     g.add_argument("--state", type=_floats(6, "x0,y0,z0,vx0,vy0,vz0 in m and m/s"),
                    default=(0.24, -0.05, 0.0, 7.3, 2.6, 2.0),
@@ -93,6 +116,14 @@ def add_arguments(parser):
     g.add_argument("--speed-kmh", type=float, default=7.2, help="machine speed v1, km/h (7.2)")
     g.add_argument("--model", default="quadratic", choices=("quadratic", "linear", "free"),
                    help="throw model (quadratic)")
+    g = p.add_argument_group("rehearsal: every run of an experiment folder (vidtrack design)")
+    g.add_argument("--regression", metavar="EQUATIONS",
+                   help="k1..k4 of each run from regression equations at its setting: a "
+                        ".toml, .csv or .json file, or chen2018 (the published eqs. "
+                        "20-23), e.g. --regression chen2018")
+    g.add_argument("--k-table", metavar="FILE.csv",
+                   help="k1..k4 of each run from a CSV with columns run, k1, k2, k3, k4 "
+                        "(run: the run folder's name, e.g. 01)")
     g = p.add_argument_group("straw and machine")
     g.add_argument("--straw-length-m", type=float, default=0.10, help="rod length (0.10)")
     g.add_argument("--straw-diameter-m", type=float, default=0.006, help="rod diameter (0.006)")
@@ -229,7 +260,8 @@ def spec_from_args(args):
     from vidtrack.synth import SynthSpec
 
     return SynthSpec(
-        k=args.k, cp_s_per_m=args.cp, state=args.state, speed_kmh=args.speed_kmh,
+        k=DEFAULT_K if args.k is None else args.k, cp_s_per_m=args.cp, state=args.state,
+        speed_kmh=args.speed_kmh,
         model=args.model, straw_length_m=args.straw_length_m,
         straw_diameter_m=args.straw_diameter_m, spin_rad_s=args.spin_rad_s,
         spin_axis=args.spin_axis, straw_grey=args.straw_grey, n_rpm=args.n_rpm,
@@ -253,14 +285,60 @@ def spec_from_args(args):
         camera_distance_in_scene=not args.no_camera_distance_in_scene,
         shadow=args.shadow, rider=args.rider, straw_polarity=args.straw_polarity,
         highlight_grey=args.highlight, person_at_side=args.person_at_side,
-        shake=args.shake, post=args.post)
+        shake=args.shake, post=args.post,
+        k_spread=None if args.k_spread is None else _four(args.k_spread))
+
+
+def _four(values):
+    """One relative spread for every k, or one per k."""
+    return tuple(values) * 4 if len(values) == 1 else tuple(values)
+
+
+def _rehearse(args):
+    """Render every run of the experiment folder OUT (--regression or --k-table)."""
+    import json
+
+    from vidtrack._text import printable
+    from vidtrack.errors import VidtrackError
+    from vidtrack.rehearsal import (DEFAULT_K_SPREAD, read_equations, read_k_table,
+                                    render_experiment)
+
+    if args.regression and args.k_table:
+        raise VidtrackError("--regression and --k-table both give the runs' k; give one")
+    if args.k is not None:
+        raise VidtrackError("--k gives one run's k; with --regression or --k-table each run's "
+                            "k comes from its setting")
+    source = (read_equations(args.regression) if args.regression
+              else read_k_table(args.k_table))
+    spread = DEFAULT_K_SPREAD if args.k_spread is None else _four(args.k_spread)
+    done = render_experiment(args.out, source, spec_from_args(args), k_spread=spread,
+                             force=args.force, quiet=args.quiet)
+    if args.json:
+        print(json.dumps(done.to_dict(), indent=1))
+        return 0
+    print(printable(done.table().to_string(index=False, float_format=lambda v: f"{v:.4g}"),
+                    keep="\n"))
+    throws = sum(r.throws for r in done.runs)
+    print(printable(f"\nwrote {len(done.runs)} runs ({throws} throws) of {args.out} at the k "
+                    f"of {done.source}, each throw's k spread by "
+                    f"{', '.join(f'{v:g}' for v in done.k_spread)} (relative sd of k1..k4), "
+                    f"in {done.elapsed_s:.1f} s\nnext: 'vidtrack report {args.out}', then "
+                    f"'vidtrack score {args.out}'", keep="\n"))
+    return 0
 
 
 def run(args):
     import json
+    from pathlib import Path
 
+    from vidtrack.errors import VidtrackError
     from vidtrack.synth import render_run
 
+    if args.regression or args.k_table:
+        return _rehearse(args)
+    if (Path(args.out) / "experiment.toml").is_file():
+        raise VidtrackError(f"{args.out}: is an experiment folder; give --regression "
+                            "EQUATIONS or --k-table FILE to render its runs")
     spec = spec_from_args(args)
     result = render_run(args.out, spec, force=args.force, quiet=args.quiet)
     if args.json:
