@@ -121,7 +121,7 @@ def test_rehearsal_recovers_the_regression(experiment, tmp_path, vidtrack_cli):
     assert read_json(out / "score.json") == score
 
     throws = pd.read_csv(out / "score_throws.csv", dtype={"run": str}).set_index("run")
-    fitted_k, covered = [], {r: 0 for r in K}
+    fitted_k, covered, own = [], {r: 0 for r in K}, {r: 0 for r in K}
     for row, truth in zip(sheet.itertuples(), true_k):
         fit = read_json(exp / "runs" / row.run / "vidtrack" / "fit.json")
         got = throws.loc[row.run]
@@ -136,9 +136,13 @@ def test_rehearsal_recovers_the_regression(experiment, tmp_path, vidtrack_cli):
             assert got[f"{r}_fit"] == pytest.approx(c["value"], rel=1e-12)
             assert got[f"{r}_error"] == pytest.approx(c["value"] - t, rel=1e-9, abs=1e-12)
             assert bool(got[f"{r}_covered"]) == (lo <= t <= hi)
+            lo_fit, hi_fit = c["ci95_fit"]
+            assert bool(got[f"{r}_covered_fit"]) == (lo_fit <= t <= hi_fit)
+            own[r] += lo_fit <= t <= hi_fit
         fitted_k.append(values)
     for r in K:
         assert score["coverage"][r]["covered"] == covered[r]
+        assert score["coverage"][r]["covered_fit"] == own[r]
         assert score["coverage"][r]["determined"] == len(sheet)
 
     regression = pd.read_csv(out / "score_regression.csv")

@@ -194,8 +194,10 @@ def read_equations(path):
     Example
     -------
     >>> eq = read_equations("chen2018")
-    >>> round(eq.terms["k1"]["n_rpm^2"], 8)
-    1.508e-05
+    >>> sorted(eq.terms)
+    ['k1', 'k2', 'k3', 'k4']
+    >>> eq.terms.get("k4").get("n_rpm:speed_kmh")
+    0.005402
     """
     if str(path) in BUILTIN_EQUATIONS:
         name = BUILTIN_EQUATIONS[str(path)]

@@ -75,15 +75,25 @@ def _throw_row(run, throw, factors, truth, record):
     for r in RESPONSES:
         c = record.get("coefficients", {}).get(r) or {}
         value = c.get("value") if c.get("determined") else None
-        ci = c.get("ci95") if c.get("determined") else None
         fit = np.nan if value is None else float(value)
-        low, high = (np.nan, np.nan) if ci is None else (float(ci[0]), float(ci[1]))
+        low, high = _interval(c, "ci95")
         row.update({f"{r}_true": truth[r], f"{r}_fit": fit, f"{r}_error": fit - truth[r],
                     f"{r}_error_pct": _PCT * (fit - truth[r]) / truth[r],
                     f"{r}_ci95_low": low, f"{r}_ci95_high": high,
-                    f"{r}_covered": (low <= truth[r] <= high) if value is not None and
-                    ci is not None else None})
+                    f"{r}_covered": _covers(low, high, truth[r]),
+                    f"{r}_covered_fit": _covers(*_interval(c, "ci95_fit"), truth[r])})
     return row
+
+
+def _interval(coefficient, key):
+    """``(low, high)`` of a fit.json coefficient's interval, NaN where there is none."""
+    ci = coefficient.get(key) if coefficient.get("determined") else None
+    return (np.nan, np.nan) if ci is None else (float(ci[0]), float(ci[1]))
+
+
+def _covers(low, high, truth):
+    """Whether [low, high] holds ``truth``; None without an interval."""
+    return None if not (np.isfinite(low) and np.isfinite(high)) else bool(low <= truth <= high)
 
 
 def _coverage(throws):
@@ -92,10 +102,12 @@ def _coverage(throws):
         err = throws[f"{r}_error_pct"].to_numpy(dtype=float)
         ok = np.isfinite(err)
         covered = throws.loc[ok, f"{r}_covered"].astype(bool)
+        own = throws.loc[ok, f"{r}_covered_fit"].dropna().astype(bool)
         e = err[ok]
         rows.append({"response": r, "throws": len(err), "determined": int(ok.sum()),
                      "covered": int(covered.sum()),
                      "coverage": float(covered.mean()) if ok.any() else np.nan,
+                     "covered_fit": int(own.sum()), "with_fit_interval": len(own),
                      "mean_error_pct": float(e.mean()) if ok.any() else np.nan,
                      "rms_error_pct": float(np.sqrt(np.mean(e ** 2))) if ok.any() else np.nan,
                      "max_abs_error_pct": float(np.abs(e).max()) if ok.any() else np.nan})
@@ -137,11 +149,13 @@ class RehearsalScore:
     throws : pandas.DataFrame
         One row per throw: ``run``, ``throw``, the factors (natural), and per k
         ``k1_true``, ``k1_fit``, ``k1_error`` (fit - true), ``k1_error_pct``,
-        ``k1_ci95_low``, ``k1_ci95_high``, ``k1_covered`` (NaN/None where the fit did not
-        determine the k).
+        ``k1_ci95_low``, ``k1_ci95_high``, ``k1_covered`` (ci95, the fit's and the
+        scales' parts together, holds the truth), ``k1_covered_fit`` (the fit's own
+        ``ci95_fit`` does); NaN/None where the fit did not determine the k.
     coverage : pandas.DataFrame
         One row per k: ``throws``, ``determined``, ``covered``, ``coverage`` (fraction
-        of the determined), ``mean_error_pct``, ``rms_error_pct``, ``max_abs_error_pct``.
+        of the determined), ``covered_fit`` and ``with_fit_interval`` (of ci95_fit),
+        ``mean_error_pct``, ``rms_error_pct``, ``max_abs_error_pct``.
     regression : pandas.DataFrame
         One row per response and term selected on the true k (coded): ``true_k``,
         ``fitted_k``, ``difference`` (fitted - true), ``selected_on_fitted``.
@@ -180,10 +194,13 @@ class RehearsalScore:
                  "Each throw's fitted k against its truth (error = fit - truth):"]
         rows = [[c.response, c.determined, f"{c.mean_error_pct:+.3f}",
                  f"{c.rms_error_pct:.3f}", f"{c.max_abs_error_pct:.3f}",
-                 f"{c.covered}/{c.determined} ({c.coverage:.0%})"]
+                 f"{c.covered}/{c.determined}", f"{c.covered_fit}/{c.with_fit_interval}"]
                 for c in self.coverage.itertuples()]
         lines += [format_table(["k", "throws", "mean error %", "rms error %",
-                                "max |error| %", "95 % interval covers"], rows), "",
+                                "max |error| %", "ci95 covers", "fit's own ci95 covers"],
+                               rows),
+                  "ci95: fit.json's 95 % interval, the fit's and the scales' parts together; "
+                  "the fit's own: ci95_fit", "",
                   "The regression on the fitted k beside the same regression on the true k "
                   f"(coded units; terms selected on the true k, alpha {self.alpha:g}):"]
         for r, g in self.regression.groupby("response", sort=False):
