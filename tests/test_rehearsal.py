@@ -158,6 +158,9 @@ def test_rehearsal_recovers_the_regression(experiment, tmp_path, vidtrack_cli):
             assert rows.loc[term, "fitted_k"] == pytest.approx(mine_fit[term], abs=1e-9)
         assert score["regression"][r]["max_abs_difference"] == pytest.approx(
             max(abs(mine_fit[t] - mine_true[t]) for t in rows.index), abs=1e-9)
+    # the regression on the fitted k is the one vidtrack report wrote
+    for fit in read_json(out / "anova.json"):
+        assert score["regression"][fit["response"]]["terms_fitted"] == fit["terms"]
     # the chain recovers the equations: their largest terms are selected on the true k,
     # and the regression on the fitted k stays near the one on the true k
     assert {"A", "B", "A:B", "A^2"} <= set(score["regression"]["k1"]["terms_true"])

@@ -13,6 +13,7 @@ terms selected on the true k (coded units), with the largest absolute difference
 """
 
 import json
+import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -114,16 +115,36 @@ def _coverage(throws):
     return pd.DataFrame(rows)
 
 
+class _Once(logging.Filter):
+    """Lets each message through once (the design's notes, said by both analyses)."""
+
+    def __init__(self):
+        super().__init__()
+        self.seen = set()
+
+    def filter(self, record):
+        message = record.getMessage()
+        first = message not in self.seen
+        self.seen.add(message)
+        return first
+
+
 def _regressions(experiment, recovered, true, alpha):
     """Per response: the terms each backward elimination selects, and the coefficients
     on the true k's terms fitted to both."""
     from fits.rsm import fit_rsm
     from vidtrack.experiment import analyse, rsm_factors
+    from vidtrack.experiment import log as experiment_log
 
     for r in experiment.responses:
         true.loc[~np.isfinite(recovered[r].to_numpy(dtype=float)), r] = np.nan
-    on_true = analyse(experiment, true, alpha=alpha)
-    on_fit = analyse(experiment, recovered, alpha=alpha)
+    once = _Once()
+    experiment_log.addFilter(once)
+    try:
+        on_true = analyse(experiment, true, alpha=alpha)
+        on_fit = analyse(experiment, recovered, alpha=alpha)
+    finally:
+        experiment_log.removeFilter(once)
     factors = rsm_factors(experiment)
     rows, terms = [], {}
     for r, t, f in zip(experiment.responses, on_true, on_fit):
