@@ -32,9 +32,9 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["FLAG_COLOURS", "OK_COLOUR", "PATH_COLOUR", "TRAIL_COLOUR", "SCENE_COLOUR",
-           "flag_colour", "flag_text", "to_bgr8", "draw_marks", "draw_trail", "draw_banner",
-           "SceneMarks", "scene_marks", "draw_scene", "write_overlay", "OverlayResult",
-           "MAX_SCALE", "MIN_SCALE", "MAX_EVERY", "TRAIL_FRAMES", "MAX_TRAIL"]
+           "flag_colour", "flag_text", "to_bgr8", "draw_frame", "draw_marks", "draw_trail",
+           "draw_banner", "SceneMarks", "scene_marks", "draw_scene", "write_overlay",
+           "OverlayResult", "MAX_SCALE", "MIN_SCALE", "MAX_EVERY", "TRAIL_FRAMES", "MAX_TRAIL"]
 
 #: Colour (B, G, R) of an unflagged frame's marker.
 OK_COLOUR = (0, 255, 0)
@@ -350,6 +350,48 @@ def draw_banner(img, lines, colours):
                     colour, th, cv2.LINE_AA)
 
 
+def draw_frame(img, *, view, frame, time_s, flags, measured=None, trail=None, shift=None,
+               path=None, fitted=None, scene=None, scale=1.0, status=None):
+    """Draw everything the overlay shows on one frame: scene, trail, marks and banner.
+
+    Parameters
+    ----------
+    img : numpy.ndarray
+        The frame as a BGR image (:func:`to_bgr8`, resized by ``scale``), drawn in place.
+    view : str
+    frame : int
+        The frame's number in the file (the banner).
+    time_s : float
+        Its time (the banner).
+    flags : int or None
+        The frame's flag bits; None: the frame was not tracked.
+    measured : (u, v), optional
+        The measured point as the footage shows it (a steadied view's camera shift added).
+    trail : (N, 2) array, optional
+        Earlier measured points, oldest first (:func:`draw_trail`).
+    shift : (du, dv), optional
+        A steadied view's camera shift in this frame: the scene, the fitted path and
+        point move with it.
+    path, fitted : see :func:`draw_marks` (where a still camera sees them).
+    scene : SceneMarks, optional
+    scale : float
+    status : str, optional
+        The banner's second line (default: the flag names, ``not tracked``).
+    """
+    sh = np.zeros(2) if shift is None else np.asarray(shift, dtype=np.float64)
+    draw_scene(img, scene, scale=scale, offset=-sh)
+    if trail is not None:
+        draw_trail(img, trail, scale=scale)
+    draw_marks(img, measured=measured, flags=flags or 0,
+               path=None if path is None else path + sh,
+               fitted=None if fitted is None else fitted + sh, scale=scale)
+    if status is None:
+        status = flag_text(flags) if flags is not None else "not tracked"
+    colour = flag_colour(flags) if flags is not None else _GREY
+    draw_banner(img, [f"{view}  frame {frame}  t {time_s:.5f} s", status],
+                [(255, 255, 255), colour])
+
+
 @dataclass(frozen=True)
 class OverlayResult:
     """What :func:`write_overlay` wrote."""
@@ -490,17 +532,13 @@ def write_overlay(source, out_dir, view, track, path=None, *, every=1, scale=1.0
                 img = to_bgr8(frame, source.bit_depth, scale)
                 f = int(numbers[i])
                 k = row_of.get(f)
-                flags = int(fl[k]) if k is not None else 0
-                sh = shifts[k] if k is not None else np.zeros(2)
-                draw_scene(img, scene, scale=scale, offset=-sh)
-                draw_trail(img, uv_shown[_trail_rows(frames, k, trail)], scale=scale)
-                draw_marks(img, measured=None if k is None else uv_shown[k],
-                           flags=flags, path=None if polyline is None else polyline + sh,
-                           fitted=None if fitted is None else fitted[i] + sh, scale=scale)
-                status = flag_text(flags) if k is not None else "not tracked"
-                colour = flag_colour(flags) if k is not None else _GREY
-                draw_banner(img, [f"{view}  frame {f}  t {times[i]:.5f} s", status],
-                            [(255, 255, 255), colour])
+                draw_frame(img, view=view, frame=f, time_s=times[i],
+                           flags=None if k is None else int(fl[k]),
+                           measured=None if k is None else uv_shown[k],
+                           trail=uv_shown[_trail_rows(frames, k, trail)],
+                           shift=None if k is None else shifts[k], path=polyline,
+                           fitted=None if fitted is None else fitted[i], scene=scene,
+                           scale=scale)
                 writer.write(img)
                 written += 1
                 bar.update()
