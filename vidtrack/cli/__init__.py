@@ -39,7 +39,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
     os.environ.setdefault(_var, "1")
 
 #: Subcommands in the order ``vidtrack --help`` lists them (module names in this package).
-COMMANDS = ("design", "init", "fit", "overlay", "report", "anova", "predict", "synth",
+COMMANDS = ("design", "init", "view", "fit", "overlay", "report", "anova", "predict", "synth",
             "score", "frames", "calibrate", "bench")
 
 

@@ -1,0 +1,383 @@
+"""A run as the page shows it: each view's footage frame by frame with the marks drawn.
+
+:class:`RunView` holds a run folder open for the page: the scene (or the loader's
+message while it does not load yet), each view's footage (opened lazily, one frame read
+at a time), the tracks and the fitted path when ``vidtrack fit`` has written them, and
+the corrections of ``scene.toml``. :meth:`RunView.render` draws a frame with the overlay's
+own drawing (:func:`vidtrack.report.overlay.draw_frame`: the scene's origin, axes and
+ruler, the trail, the measured point in its flag colour, the fitted path, the banner with
+the flags and their reason), plus the corrections: a point placed by hand (a square in
+:data:`MANUAL_COLOUR`), the ``target`` (a diamond) and ``excluded`` in the banner.
+"""
+
+import json
+import threading
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from vidtrack.errors import SceneError, VidtrackError
+from vidtrack.scene.model import SCENE_FILE
+from vidtrack.view.edits import ORTHOGONAL_VIEWS, SCALE_KEYS
+
+__all__ = ["RunView", "DISPLAY_WIDTH_PX", "MANUAL_COLOUR", "TARGET_COLOUR"]
+
+#: Width the page shows a frame at (px): small footage is enlarged to click it precisely.
+DISPLAY_WIDTH_PX = 960
+#: Colour (B, G, R) of a point placed by hand (a square) and of the target (a diamond).
+MANUAL_COLOUR = (255, 64, 0)
+TARGET_COLOUR = (255, 64, 0)
+#: Size of those markers in drawn pixels.
+MARKER_PX = 18
+#: Frames of trail drawn behind the measured point.
+PAGE_TRAIL_FRAMES = 30
+
+
+def _valid_alone(folder, path, name, raw):
+    """The view parsed alone, each set-up value the loader refuses replaced by a
+    stand-in; and which of origin, axes, scale are the file's own (not stand-ins)."""
+    from vidtrack.scene.read import parse_scene
+
+    stand = {"fps": 1000.0, "origin_px": [0.0, 0.0],
+             "axes": ["+" + ORTHOGONAL_VIEWS[name][0], "+" + ORTHOGONAL_VIEWS[name][1]]}
+    base = {k: v for k, v in raw.items() if k not in SCALE_KEYS and k not in stand}
+    base.update(stand)
+    base["m_per_px"] = 0.001
+    own = set()
+    for key in ("fps", "origin_px", "axes", "scale"):
+        probe = dict(base)
+        if key == "scale":
+            if not any(k in raw for k in SCALE_KEYS):
+                continue
+            probe.pop("m_per_px")
+            probe.update({k: raw[k] for k in SCALE_KEYS if k in raw})
+        elif key in raw:
+            probe[key] = raw[key]
+        else:
+            continue
+        try:
+            parse_scene({"schema": 1, "views": {name: probe}}, folder=folder, label=str(path),
+                        path=path)
+        except SceneError:
+            continue
+        own.add(key)
+    view = dict(base)
+    for key in own:
+        if key == "scale":
+            view.pop("m_per_px")
+            view.update({k: raw[k] for k in SCALE_KEYS if k in raw})
+        else:
+            view[key] = raw[key]
+    try:
+        scene = parse_scene({"schema": 1, "views": {name: view}}, folder=folder,
+                            label=str(path), path=path)
+    except SceneError:
+        return None, set()
+    return scene.views[name], own
+
+
+class _Footage:
+    """One view's footage, opened on first use, read one frame at a time."""
+
+    def __init__(self, path, fps, channel):
+        self.path, self.fps, self.channel = Path(path), fps, channel
+        self._source = None
+
+    @property
+    def source(self):
+        if self._source is None:
+            from vidtrack.footage import open_source
+
+            self._source = open_source(self.path, fps=self.fps, channel=self.channel)
+        return self._source
+
+    def close(self):
+        if self._source is not None:
+            self._source.close()
+            self._source = None
+
+
+class RunView:
+    """A run folder held open for the page.
+
+    Parameters
+    ----------
+    folder : str or pathlib.Path
+        The run folder (with ``scene.toml``; one throw: a run with ``throws/`` is refused).
+
+    Raises
+    ------
+    VidtrackError
+        No such folder, no scene.toml, a file that is not TOML, a run with ``throws/``,
+        no view with footage, footage that cannot be opened (one line each).
+    """
+
+    def __init__(self, folder):
+        folder = Path(folder)
+        if not folder.is_dir():
+            raise VidtrackError(f"{folder}: no such folder; expected a run folder with "
+                                f"{SCENE_FILE}")
+        self.folder = folder.resolve()
+        self.scene_path = self.folder / SCENE_FILE
+        if not self.scene_path.is_file():
+            raise SceneError(f"{self.scene_path}: no such file; expected the run's "
+                             f"{SCENE_FILE} (vidtrack init {folder} writes one)")
+        if (self.folder / "throws").is_dir():
+            raise VidtrackError(f"{folder}: has throws/; the page opens a run of one throw "
+                                "(expected a run folder without throws/)")
+        self._lock = threading.RLock()
+        self._footage = {}
+        self.reload()
+        if not self._footage:
+            raise SceneError(f"{self.scene_path}: no view gives footage (views.<name>.source);"
+                             " expected at least one")
+        for name in self._footage:
+            with self._lock:
+                self._footage[name].source  # noqa: B018 - opened now: bad footage refused
+
+    # ------------------------------------------------------------------ state
+    def reload(self):
+        """Read scene.toml, the tracks and the fit again (after an edit or a fit)."""
+        from vidtrack.scene.read import parse_scene
+
+        with self._lock:
+            try:
+                raw = tomllib.loads(self.scene_path.read_text(encoding="utf-8"))
+            except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+                raise SceneError(f"{self.scene_path}: cannot be read as TOML ({exc})") from None
+            self.raw = raw
+            try:
+                self.scene = parse_scene(raw, folder=self.folder, label=str(self.scene_path),
+                                         path=self.scene_path)
+                self.scene_error = None
+            except SceneError as exc:
+                self.scene, self.scene_error = None, str(exc)
+            views = raw.get("views") if isinstance(raw.get("views"), dict) else {}
+            for name, table in views.items():
+                if not isinstance(table, dict) or not isinstance(table.get("source"), str):
+                    continue
+                fps = table.get("fps")
+                fps = fps if isinstance(fps, (int, float)) and not isinstance(
+                    fps, bool) and 0 < fps < 1e7 else None
+                channel = table.get("channel") if isinstance(table.get("channel"), str) else "luma"
+                path = self.folder / table["source"]
+                old = self._footage.get(name)
+                if old is None or (old.path, old.fps, old.channel) != (path, fps, channel):
+                    if old is not None:
+                        old.close()
+                    self._footage[name] = _Footage(path, fps, channel)
+            self._views = {}
+            for name in self._footage:
+                self._views[name] = self._view_spec(name, views.get(name, {}))
+            self._read_outputs()
+
+    def _view_spec(self, name, raw):
+        if self.scene is not None:
+            return self.scene.views.get(name), {"fps", "origin_px", "axes", "scale"}
+        if name not in ORTHOGONAL_VIEWS or not isinstance(raw, dict):
+            return None, set()
+        return _valid_alone(self.folder, self.scene_path, name, raw)
+
+    def _read_outputs(self):
+        """The tracks, the fitted path and why they may not match the scene."""
+        from vidtrack.run.tracks_file import read_tracks
+
+        self.tracks, self.paths, self.notes = {}, {}, []
+        out = self.folder / "vidtrack"
+        h5 = out / "tracks.h5"
+        if not h5.is_file():
+            self.notes.append("not fitted yet: no tracks (Fit draws them)")
+            return
+        try:
+            tf = read_tracks(h5)
+        except VidtrackError as exc:
+            self.notes.append(f"tracks not shown: {exc}")
+            return
+        self.tracks = {n: t.data for n, t in tf.tracks.items()}
+        if self.scene is None:
+            return
+        from vidtrack.run.overlay_run import stale_reason
+
+        why = stale_reason(self.scene, self.folder, out)
+        if why:
+            self.notes.append(f"tracks and fit not current: {why} (Fit updates them)")
+        try:
+            record = json.loads((out / "fit.json").read_text(encoding="utf-8"))
+            if tf.world is None:
+                return
+            from vidtrack.report.view_path import view_paths
+
+            world = {c: tf.world.data[c].to_numpy() for c in tf.world.data.columns}
+            self.paths = view_paths(self.scene, record, world,
+                                    frame_shapes={n: t.frame_shape
+                                                  for n, t in tf.tracks.items()})
+        except (OSError, ValueError, KeyError, TypeError, VidtrackError) as exc:
+            self.notes.append(f"fitted path not shown: {exc}")
+
+    def close(self):
+        with self._lock:
+            for f in self._footage.values():
+                f.close()
+
+    @property
+    def view_names(self):
+        return list(self._footage)
+
+    def frame_count(self, name):
+        """Frames in the view's footage."""
+        with self._lock:
+            return len(self._source(name))
+
+    def _source(self, name):
+        if name not in self._footage:
+            raise VidtrackError(f"view {name!r}: not a view of {self.scene_path} with footage; "
+                                f"expected one of {', '.join(self._footage)}")
+        return self._footage[name].source
+
+    def display_scale(self, name):
+        from vidtrack.report.overlay import MAX_SCALE, MIN_SCALE
+
+        cols = self._source(name).shape[1]
+        return float(np.clip(DISPLAY_WIDTH_PX / cols, MIN_SCALE, MAX_SCALE))
+
+    def state(self):
+        """What the page shows beside the frames, as JSON can take it."""
+        with self._lock:
+            views = {}
+            for name in self._footage:
+                src = self._source(name)
+                views[name] = {
+                    "frames": len(src), "width_px": int(src.shape[1]),
+                    "height_px": int(src.shape[0]), "scale": self.display_scale(name),
+                    "world_axes": list(ORTHOGONAL_VIEWS.get(name, ())),
+                    "source": str(self._footage[name].path.relative_to(self.folder))
+                    if self._footage[name].path.is_relative_to(self.folder)
+                    else str(self._footage[name].path),
+                    "tracked": name in self.tracks,
+                }
+            return {"run": self.folder.name, "folder": str(self.folder), "views": views,
+                    "scene_error": self.scene_error, "notes": list(self.notes)}
+
+    # ------------------------------------------------------------------ one frame
+    def _corrections(self, name):
+        raw = (self.raw.get("views") or {}).get(name) or {}
+        excluded = set()
+        for r in raw.get("exclude_frames") or ():
+            if isinstance(r, list) and len(r) == 2 and all(isinstance(x, int) for x in r):
+                excluded.update(range(r[0], r[1]))
+        manual = {}
+        text = raw.get("manual_points")
+        if isinstance(text, str):
+            from vidtrack.scene.corrections import manual_points_file, read_manual_points
+
+            path = manual_points_file(self.folder, text)
+            try:
+                points = read_manual_points(path, label=str(self.scene_path),
+                                            key=f"views.{name}.manual_points", text=text)
+                manual = {f: (u, v) for f, u, v in zip(points.frames, points.u_px,
+                                                       points.v_px)}
+            except SceneError:
+                manual = {}
+        target = raw.get("target") if isinstance(raw.get("target"), dict) else None
+        return excluded, manual, target
+
+    def frame_info(self, name, index):
+        """The frame's number, time, flags and reason, measured point and corrections.
+
+        Raises
+        ------
+        VidtrackError
+            An unknown view, or an index outside the footage.
+        """
+        from vidtrack.report.overlay import flag_text
+
+        with self._lock:
+            src = self._source(name)
+            if not 0 <= index < len(src):
+                raise VidtrackError(f"frame {index}: not a frame of view {name} (0 to "
+                                    f"{len(src) - 1})")
+            frame = int(src.frame_numbers[index])
+            info = {"view": name, "index": index, "frame": frame,
+                    "t_s": float(src.times_s[index]), "tracked": False, "flags": None,
+                    "flag_text": "not tracked", "reason": None, "u_px": None, "v_px": None}
+            data = self.tracks.get(name)
+            if data is not None:
+                rows = np.nonzero(data["frame"].to_numpy() == frame)[0]
+                if rows.size:
+                    row = data.iloc[int(rows[0])]
+                    flags = int(row["flags"])
+                    reason = row["reason"] if "reason" in data.columns else None
+                    info.update(tracked=True, flags=flags, flag_text=flag_text(flags),
+                                reason=reason if isinstance(reason, str) and reason else None,
+                                u_px=_num(row["u_px"]), v_px=_num(row["v_px"]))
+            excluded, manual, target = self._corrections(name)
+            info["excluded"] = frame in excluded
+            info["manual_px"] = list(manual[frame]) if frame in manual else None
+            info["target_px"] = (target.get("at_px") if target and target.get("frame") == frame
+                                 else None)
+            return info
+
+    def render(self, name, index):
+        """The frame ``index`` of view ``name`` with every mark drawn, as PNG bytes."""
+        import cv2
+
+        from vidtrack.report.overlay import draw_frame, scene_marks, to_bgr8
+
+        with self._lock:
+            info = self.frame_info(name, index)
+            src = self._source(name)
+            scale = self.display_scale(name)
+            img = to_bgr8(src[index], src.bit_depth, scale)
+            spec, own = self._views.get(name, (None, set()))
+            marks = None
+            if spec is not None and "origin_px" in own:
+                marks = scene_marks(spec, src.shape[:2])
+                if marks is not None:
+                    marks = type(marks)(origin=marks.origin,
+                                        axes=marks.axes if "axes" in own else (),
+                                        ruler=marks.ruler if "scale" in own else None)
+            measured = trail = shift = None
+            data = self.tracks.get(name)
+            if data is not None:
+                from vidtrack.report.overlay import camera_shifts
+
+                frames = data["frame"].to_numpy()
+                uv = np.column_stack([data["u_px"].to_numpy(), data["v_px"].to_numpy()])
+                shifts = camera_shifts(data, len(frames))
+                uv = uv + shifts
+                rows = np.nonzero(frames == info["frame"])[0]
+                before = (frames < info["frame"]) & (frames >= info["frame"] - PAGE_TRAIL_FRAMES)
+                trail = uv[before]
+                if rows.size:
+                    measured, shift = uv[rows[0]], shifts[rows[0]]
+            path = self.paths.get(name)
+            polyline = fitted = None
+            if path is not None:
+                polyline = path.polyline()
+                fitted = path.at_frames(np.array([info["frame"]]),
+                                        np.array([info["t_s"]]))[0]
+            status = info["flag_text"]
+            if info["reason"]:
+                status += f" ({info['reason']})"
+            if info["excluded"]:
+                status += "  EXCLUDED"
+            draw_frame(img, view=name, frame=info["frame"], time_s=info["t_s"],
+                       flags=info["flags"], measured=measured, trail=trail, shift=shift,
+                       path=polyline, fitted=fitted, scene=marks, scale=scale, status=status)
+            for at, shape in ((info["manual_px"], cv2.MARKER_SQUARE),
+                              (info["target_px"], cv2.MARKER_DIAMOND)):
+                if at is not None:
+                    c = (np.asarray(at, dtype=np.float64) + 0.5) * scale - 0.5
+                    cv2.drawMarker(img, (int(round(c[0])), int(round(c[1]))), MANUAL_COLOUR,
+                                   shape, MARKER_PX, 2, cv2.LINE_AA)
+            ok, png = cv2.imencode(".png", img)
+            if not ok:
+                raise VidtrackError(f"view {name}, frame {info['frame']}: cannot be encoded "
+                                    "as PNG")
+            return png.tobytes()
+
+
+def _num(value):
+    value = float(value)
+    return value if np.isfinite(value) else None

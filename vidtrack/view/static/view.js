@@ -1,0 +1,165 @@
+// vidtrack view: step through the footage, click the scene and the corrections.
+"use strict";
+const $ = (id) => document.getElementById(id);
+let state = null, view = null, index = 0, tool = null, clicks = [];
+
+const HINTS = {
+  origin: "click the origin O (the centre of the blade shaft)",
+  axes: ["click a point along +X from O", "click a point along the second axis (+Y or +Z) from O"],
+  ruler: ["click one end of the ruler", "click the other end of the ruler"],
+  target: "click the object to follow in this frame",
+  point: "click the object's centre in this frame (a point placed by hand)",
+};
+
+function say(text, kind) {
+  const m = $("message");
+  m.textContent = text || "";
+  m.className = kind || "";
+}
+
+async function api(path, body) {
+  const opts = body === undefined ? {} : {
+    method: "POST", headers: {"Content-Type": "application/json"},
+    body: JSON.stringify(body)};
+  const r = await fetch(path, opts);
+  const data = await r.json();
+  if (!r.ok) throw new Error(data.error || ("HTTP " + r.status));
+  return data;
+}
+
+async function loadState() {
+  state = await api("/api/state");
+  $("run").textContent = state.run;
+  const err = $("scene-error");
+  err.hidden = !state.scene_error;
+  err.textContent = state.scene_error ? "scene.toml does not load yet: " + state.scene_error : "";
+  $("notes").innerHTML = "";
+  for (const n of state.notes) {
+    const li = document.createElement("li");
+    li.textContent = n;
+    $("notes").appendChild(li);
+  }
+  const sel = $("view");
+  if (!sel.options.length) {
+    for (const name of Object.keys(state.views)) sel.add(new Option(name, name));
+    view = sel.value;
+  }
+  showFit(state.fit);
+}
+
+function showFit(fit) {
+  const s = $("fit-status");
+  s.textContent = fit.state === "idle" ? "" : fit.state + (fit.message ? ": " + fit.message : "");
+  s.className = fit.state === "failed" ? "error" : "";
+  $("fit").disabled = fit.state === "running";
+}
+
+async function show(i) {
+  const v = state.views[view];
+  index = Math.max(0, Math.min(v.frames - 1, i));
+  $("index").value = index; $("index").max = v.frames - 1;
+  $("slider").value = index; $("slider").max = v.frames - 1;
+  $("count").textContent = "of " + v.frames;
+  const img = $("frame");
+  const loaded = new Promise((ok) => { img.onload = ok; img.onerror = ok; });
+  img.src = "/frame/" + encodeURIComponent(view) + "/" + index + ".png?t=" + Date.now();
+  const info = await api("/api/frame/" + encodeURIComponent(view) + "/" + index);
+  await loaded;
+  img.dataset.frame = String(info.frame);
+  $("exclude").textContent = info.excluded ? "include this frame" : "exclude this frame";
+  $("info").textContent = [
+    "frame " + info.frame + "   t = " + info.t_s.toFixed(5) + " s",
+    "flags: " + info.flag_text + (info.reason ? "  (" + info.reason + ")" : ""),
+    "measured: " + (info.u_px === null ? "-" : info.u_px.toFixed(2) + ", " + info.v_px.toFixed(2)),
+    "placed by hand: " + (info.manual_px ? info.manual_px.join(", ") : "-"),
+    "excluded: " + (info.excluded ? "yes" : "no"),
+  ].join("\n");
+}
+
+function setTool(name) {
+  tool = tool === name ? null : name;
+  clicks = [];
+  for (const b of document.querySelectorAll("button.tool"))
+    b.classList.toggle("active", b.dataset.tool === tool);
+  hint();
+}
+
+function hint() {
+  if (!tool) { say(""); return; }
+  const h = HINTS[tool];
+  say(Array.isArray(h) ? h[clicks.length] : h);
+}
+
+// A click on the drawn frame -> the footage's pixel (pixel centres at integers).
+function framePixel(ev) {
+  const img = $("frame"), r = img.getBoundingClientRect();
+  const scale = state.views[view].scale;
+  const x = (ev.clientX - r.left) * img.naturalWidth / r.width;
+  const y = (ev.clientY - r.top) * img.naturalHeight / r.height;
+  return [+(((x + 0.5) / scale) - 0.5).toFixed(2), +(((y + 0.5) / scale) - 0.5).toFixed(2)];
+}
+
+async function edit(body) {
+  try {
+    const r = await api("/api/edit", Object.assign({view: view}, body));
+    say("wrote " + r.written.join(", ") +
+        (r.scene_error ? "; scene.toml still: " + r.scene_error : ""), "ok");
+    await loadState();
+    await show(index);
+  } catch (e) {
+    say(e.message, "error");
+  }
+}
+
+async function onFrameClick(ev) {
+  if (!tool) { say("choose what to click first (origin, axes, ruler, target, point)"); return; }
+  const px = framePixel(ev);
+  const frame = Number($("frame").dataset.frame);
+  clicks.push(px);
+  const t = tool;
+  if (t === "origin") await edit({set: "origin", at_px: px});
+  else if (t === "target") await edit({set: "target", frame: frame, at_px: px});
+  else if (t === "point") { await edit({set: "point", frame: frame, at_px: px}); return; }
+  else if (clicks.length < 2) { hint(); return; }
+  else if (t === "axes") await edit({set: "axes", first_px: clicks[0], second_px: clicks[1]});
+  else if (t === "ruler") await edit({set: "ruler", from_px: clicks[0], to_px: clicks[1],
+                                      length_m: Number($("ruler-length").value)});
+  clicks = [];
+  tool = null;
+  for (const b of document.querySelectorAll("button.tool")) b.classList.remove("active");
+}
+
+async function pollFit() {
+  const fit = await api("/api/fit");
+  showFit(fit);
+  if (fit.state === "running") { setTimeout(pollFit, 500); return; }
+  await loadState();
+  await show(index);
+}
+
+function init() {
+  $("frame").addEventListener("click", onFrameClick);
+  $("prev").onclick = () => show(index - 1);
+  $("next").onclick = () => show(index + 1);
+  $("index").onchange = () => show(Number($("index").value));
+  $("slider").oninput = () => show(Number($("slider").value));
+  $("view").onchange = () => { view = $("view").value; show(0); };
+  for (const b of document.querySelectorAll("button.tool")) b.onclick = () => setTool(b.dataset.tool);
+  $("exclude").onclick = () => edit({set: "exclude", frame: Number($("frame").dataset.frame),
+                                     excluded: $("exclude").textContent.startsWith("exclude")});
+  $("remove-point").onclick = () => edit({set: "point", frame: Number($("frame").dataset.frame),
+                                          at_px: null});
+  $("set-fps").onclick = () => edit({set: "fps", fps: Number($("fps").value)});
+  $("fit").onclick = async () => {
+    try { showFit(await api("/api/fit", {})); pollFit(); } catch (e) { say(e.message, "error"); }
+  };
+  document.addEventListener("keydown", (ev) => {
+    if (ev.target.tagName === "INPUT") return;
+    if (ev.key === "ArrowLeft") show(index - 1);
+    if (ev.key === "ArrowRight") show(index + 1);
+    if (ev.key === "Escape") setTool(null);
+  });
+  loadState().then(() => show(0)).then(() => { document.body.dataset.ready = "1"; })
+    .catch((e) => say(e.message, "error"));
+}
+init();
