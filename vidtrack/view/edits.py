@@ -217,7 +217,7 @@ def _check(folder, path, before, after, view, gives, manual_text=None, manual_na
         after = copy.deepcopy(after)
         if manual_text is not None:
             # the new manual points are checked from a copy, before anything is written
-            probe_csv = Path(tmp) / "manual.csv"
+            probe_csv = Path(tmp) / Path(manual_name).name   # messages name the file
             probe_csv.write_text(manual_text, encoding="utf-8")
             after["views"][view]["manual_points"] = str(probe_csv)
 
