@@ -255,8 +255,10 @@ class RunView:
                     if self._footage[name].path.is_relative_to(self.folder)
                     else str(self._footage[name].path),
                     "tracked": name in self.tracks,
+                    "fps": self._footage[name].fps,
                 }
-            return {"run": self.folder.name, "folder": str(self.folder), "views": views,
+            run_name = self.scene.run_name if self.scene is not None else self.folder.name
+            return {"run": run_name, "folder": str(self.folder), "views": views,
                     "scene_error": self.scene_error, "notes": list(self.notes)}
 
     # ------------------------------------------------------------------ one frame

@@ -56,6 +56,7 @@ function showFit(fit) {
 
 async function show(i) {
   const v = state.views[view];
+  if (document.activeElement !== $("fps")) $("fps").value = v.fps === null ? "" : v.fps;
   index = Math.max(0, Math.min(v.frames - 1, i));
   $("index").value = index; $("index").max = v.frames - 1;
   $("slider").value = index; $("slider").max = v.frames - 1;
