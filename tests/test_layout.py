@@ -27,7 +27,7 @@ STAGE_RANK = {
     "vidtrack.run": 6,
     "vidtrack.experiment": 7, "vidtrack.synth": 7, "vidtrack.predict": 7,
     "vidtrack.scene_template": 7,
-    "vidtrack.bench": 8, "vidtrack.design": 8, "vidtrack.rehearsal": 8,
+    "vidtrack.bench": 8, "vidtrack.design": 8, "vidtrack.rehearsal": 8, "vidtrack.view": 8,
     "vidtrack.cli": 9, "vidtrack.__main__": 10,
 }
 

@@ -55,7 +55,12 @@ def run(args):
     except ImportError:
         raise VidtrackError("vidtrack view needs Flask, which is not installed: pip install "
                             "'vidtrack[view]'") from None
+    import logging
+
     from vidtrack.view import create_app, start_server
+
+    if not args.verbose:   # the server's line per request only with -v
+        logging.getLogger("werkzeug").setLevel(logging.WARNING)
 
     app = create_app(args.run)
     server = start_server(app, port=args.port)
