@@ -255,6 +255,14 @@ def test_fit_from_the_page_says_why_it_fails(tmp_path, vidtrack_cli):
     assert not (run / "vidtrack").exists()
 
 
+def test_other_host_names_refused(tmp_path):
+    run = copy_run(tmp_path / "run")
+    c = client(run)
+    r = c.get("/api/state", headers={"Host": "evil.example:8000"})
+    assert r.status_code == 403 and "evil.example" in r.json["error"]
+    assert c.get("/api/state", headers={"Host": "127.0.0.1:8000"}).status_code == 200
+
+
 def test_help_has_an_example(vidtrack_cli):
     r = vidtrack_cli("view", "--help")
     assert r.returncode == 0

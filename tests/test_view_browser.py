@@ -1,18 +1,21 @@
 """``vidtrack view`` in a real headless Chromium: the page as a user meets it.
 
 The real command serves the page on 127.0.0.1 (a child process); Selenium drives Debian's
-``chromium`` through ``chromedriver``: it clicks the frame to set the origin, steps
-frames, places a point by hand, excludes a frame, and types a bad fps. Truth: the pixels
-the test clicked (worked out from the element's size and the display scale the page
-states), scene.toml and the manual points file read back by the scene loader and
-``csv``. A screenshot of the page is kept (``tmp_path/view.png``). Skipped, with the
-reason, where Selenium, chromium or chromedriver are absent.
+``chromium`` through ``chromedriver``: it fits the run, clicks the frame to set the
+origin, steps frames, places a point by hand, excludes a frame, and types a bad fps.
+Truth: tracks.csv written by the fit, the pixels the test clicked (worked out from the
+element's size and the display scale the page states), scene.toml and the manual points
+file read back by the scene loader and ``csv``. A screenshot of the page is kept
+(``tmp_path/view.png``). Skipped, with the reason, where Selenium, chromium or
+chromedriver are absent.
 """
 
 import csv
 import hashlib
+import re
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 pytest.importorskip("flask", reason="vidtrack view needs Flask (pip install 'vidtrack[view]')")
@@ -104,6 +107,17 @@ def test_set_up_and_correct_a_run_by_clicking(page, tmp_path):
     from vidtrack.scene import load_scene
 
     run, browser, wait = page
+    # fitted from the page: the tracker's point of the frame shown, as tracks.csv has it
+    browser.find_element(By.ID, "fit").click()
+    wait.until(lambda d: d.find_element(By.ID, "fit-status").text.startswith(("done", "failed")))
+    assert browser.find_element(By.ID, "fit-status").text.startswith("done")
+    table = pd.read_csv(run / "vidtrack" / "tracks.csv")
+    row = table[(table["view"] == "front") & (table["frame"] == 0)].iloc[0]
+    wait.until(lambda d: "measured: -" not in d.find_element(By.ID, "info").text)
+    shown = re.search(r"measured: ([-\d.]+), ([-\d.]+)",
+                      browser.find_element(By.ID, "info").text)
+    assert [float(shown[1]), float(shown[2])] == pytest.approx([row["u_px"], row["v_px"]],
+                                                               abs=0.006)
     # the origin, clicked on the first frame
     browser.find_element(By.ID, "tool-origin").click()
     clicked, tol = click_frame(browser, (150.0, 90.0))

@@ -11,7 +11,8 @@ Routes (all JSON but the page and the frames):
 - ``POST /api/edit``: one edit of scene.toml (:func:`vidtrack.view.edits.apply_edit`);
 - ``POST /api/fit`` starts ``vidtrack fit RUN``, ``GET /api/fit`` says how it went.
 
-Bad input answers HTTP 400 (404 for a view or frame that is not there) with
+Requests that name another host than 127.0.0.1 or localhost are refused (403). Bad input
+answers HTTP 400 (404 for a view or frame that is not there) with
 ``{"error": "<the one-line message vidtrack's commands print>"}``; nothing is written then.
 """
 
@@ -22,6 +23,8 @@ from vidtrack.errors import INPUT_ERRORS, VidtrackError
 __all__ = ["create_app"]
 
 _STATIC = Path(__file__).resolve().parent / "static"
+#: The host names the page answers to (it is served on 127.0.0.1 only).
+LOCAL_HOSTS = ("127.0.0.1", "localhost")
 
 
 def create_app(run_dir):
@@ -56,6 +59,14 @@ def create_app(run_dir):
 
     def refused(exc, status=400):
         return jsonify({"error": str(exc)}), status
+
+    @app.before_request
+    def this_machine_only():
+        # served on 127.0.0.1 only; a page of another site that a browser sends here
+        # under another host name (DNS rebinding) is turned away
+        if request.host.rsplit(":", 1)[0] not in LOCAL_HOSTS:
+            return refused(f"host {request.host!r}: this page answers only as "
+                           f"{' or '.join(LOCAL_HOSTS)}", 403)
 
     @app.get("/")
     def page():
