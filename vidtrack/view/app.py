@@ -3,8 +3,8 @@
 Routes (all JSON but the page and the frames):
 
 - ``GET /``: the page (``static/view.html``);
-- ``GET /api/state``: the run, its views (frame count, size, display scale), the scene's
-  remaining error, notes, the fit's state;
+- ``GET /api/state``: the run read again (scene.toml, tracks, fit), its views (frame
+  count, size, display scale), the scene's remaining error, notes, the fit's state;
 - ``GET /api/frame/<view>/<index>``: the frame's number, time, flags and reason,
   measured point and corrections (:meth:`RunView.frame_info`);
 - ``GET /frame/<view>/<index>.png``: the frame with the marks drawn (:meth:`RunView.render`);
@@ -74,6 +74,11 @@ def create_app(run_dir):
 
     @app.get("/api/state")
     def state():
+        if job.status()["state"] != "running":
+            try:   # scene.toml or the outputs may have changed outside the page
+                run.reload()
+            except INPUT_ERRORS as exc:
+                return refused(exc)
         out = run.state()
         out["fit"] = job.status()
         return jsonify(out)

@@ -145,7 +145,9 @@ function init() {
   $("index").onchange = () => show(Number($("index").value));
   $("slider").oninput = () => show(Number($("slider").value));
   $("view").onchange = () => { view = $("view").value; show(0); };
-  for (const b of document.querySelectorAll("button.tool")) b.onclick = () => setTool(b.dataset.tool);
+  for (const b of document.querySelectorAll("button.tool")) {
+    b.onclick = () => setTool(b.dataset.tool);
+  }
   $("exclude").onclick = () => edit({set: "exclude", frame: Number($("frame").dataset.frame),
                                      excluded: $("exclude").textContent.startsWith("exclude")});
   $("remove-point").onclick = () => edit({set: "point", frame: Number($("frame").dataset.frame),
