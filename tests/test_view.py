@@ -101,10 +101,15 @@ def test_init_template_set_up_by_clicks(tmp_path, vidtrack_cli):
     steps = [dict(set="origin", at_px=[80.5, 69.75]),
              dict(set="axes", first_px=[150.0, 70.0], second_px=[80.0, 10.0]),
              dict(set="ruler", from_px=[200.8, 170.2], to_px=[286.7, 170.2], length_m=0.5)]
+    scale = c.get("/api/state").json["views"]["front"]["scale"]
+    u, v = ((np.array([80.5, 69.75]) + 0.5) * scale - 0.5).round().astype(int)
+    assert not bluish(frame_image(c, 5)).any()       # nothing of the scene given yet
     for body in steps:
         r = edit(c, **body)
         assert r.status_code == 200, r.json
         assert "views.front.fps must be > 0, got 0" in r.json["scene_error"]
+        # the origin is drawn as soon as it is given, though the file does not load yet
+        assert bluish(frame_image(c, 5)[v - 2:v + 3, u - 2:u + 3]).any()
     r = edit(c, set="fps", fps=1200)
     assert r.status_code == 200 and r.json["scene_error"] is None
     view = load_scene(run).views["front"]
@@ -197,6 +202,12 @@ def bluish(img):
     return (b - r > 60) & (b > 180)
 
 
+def frame_image(c, index, view="front"):
+    r = c.get(f"/frame/{view}/{index}.png")
+    assert r.status_code == 200 and r.mimetype == "image/png"
+    return cv2.imdecode(np.frombuffer(r.data, np.uint8), cv2.IMREAD_COLOR)
+
+
 def test_frame_drawn_with_the_origin_where_it_was_clicked(tmp_path):
     run = copy_run(tmp_path / "run")
     c = client(run)
@@ -208,9 +219,7 @@ def test_frame_drawn_with_the_origin_where_it_was_clicked(tmp_path):
     scale = state["scale"]
     for origin in ([120.0, 60.0], [300.0, 120.0]):
         assert edit(c, set="origin", at_px=origin).status_code == 200
-        r = c.get("/frame/front/5.png")
-        assert r.status_code == 200 and r.mimetype == "image/png"
-        img = cv2.imdecode(np.frombuffer(r.data, np.uint8), cv2.IMREAD_COLOR)
+        img = frame_image(c, 5)
         assert img.shape[:2] == (round(h * scale), round(w * scale))
         u, v = ((np.asarray(origin) + 0.5) * scale - 0.5).round().astype(int)
         assert bluish(img[v - 2:v + 3, u - 2:u + 3]).any()      # the circled cross at O

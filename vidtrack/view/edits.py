@@ -29,8 +29,8 @@ from pathlib import Path
 from vidtrack.errors import SceneError
 from vidtrack.scene.model import SCENE_FILE
 
-__all__ = ["EditResult", "apply_edit", "axes_from_clicks", "frames_to_ranges", "EDITS",
-           "ORTHOGONAL_VIEWS"]
+__all__ = ["EditResult", "apply_edit", "axes_from_clicks", "frames_to_ranges",
+           "with_stand_ins", "EDITS", "ORTHOGONAL_VIEWS", "SET_UP"]
 
 #: The edits the page can ask for (the ``set`` field of a request).
 EDITS = ("origin", "axes", "ruler", "fps", "target", "point", "exclude")
@@ -38,12 +38,13 @@ EDITS = ("origin", "axes", "ruler", "fps", "target", "point", "exclude")
 ORTHOGONAL_VIEWS = {"front": ("x", "y"), "top": ("x", "z")}
 #: Keys of a view that set its scale; a ruler clicked replaces the others.
 SCALE_KEYS = ("ruler", "m_per_px", "m_per_px_rel_uncertainty", "calibration")
-#: Stand-ins for set-up values an edit does not touch, when the edited view is checked
-#: alone (a scene not complete yet): they are never written.
+#: The set-up values of a front/top view: the loader refuses the view without each.
+SET_UP = ("fps", "origin_px", "axes", "scale")
+#: Stand-ins for set-up values, when a view is checked alone while its scene is not
+#: complete yet: never written, never drawn.
 _STAND_INS = {"fps": 1000.0, "origin_px": [0.0, 0.0], "m_per_px": 0.001}
-#: Which set-up keys each edit gives (the rest get stand-ins in the check).
-_GIVES = {"origin": ("origin_px",), "axes": ("axes",), "ruler": SCALE_KEYS,
-          "fps": ("fps",)}
+#: Which set-up values each edit gives.
+_GIVES = {"origin": ("origin_px",), "axes": ("axes",), "ruler": ("scale",), "fps": ("fps",)}
 #: The manual points file a view gets when scene.toml names none.
 MANUAL_FILE = "{view}_manual.csv"
 #: The smallest ruler accepted from clicks (px): two clicks on one spot are a slip.
@@ -186,6 +187,23 @@ def _view_table(doc, name, label):
     return views[name]
 
 
+def with_stand_ins(view, name, keep):
+    """A copy of a front/top view's table (``name``) in which the set-up values
+    (:data:`SET_UP`) not in ``keep`` are stand-ins the loader accepts."""
+    alone = copy.deepcopy(dict(view))
+    if "fps" not in keep:
+        alone["fps"] = _STAND_INS["fps"]
+    if "origin_px" not in keep:
+        alone["origin_px"] = _STAND_INS["origin_px"]
+    if "axes" not in keep:
+        alone["axes"] = ["+" + ORTHOGONAL_VIEWS[name][0], "+" + ORTHOGONAL_VIEWS[name][1]]
+    if "scale" not in keep:
+        for k in SCALE_KEYS:
+            alone.pop(k, None)
+        alone["m_per_px"] = _STAND_INS["m_per_px"]
+    return alone
+
+
 def _manual_rows(folder, view_table):
     """The view's manual points as ``{frame: (u, v)}`` (empty when none are named)."""
     from vidtrack.scene.corrections import manual_points_file, read_manual_points
@@ -241,18 +259,7 @@ def _check(folder, path, before, after, view, gives, manual_text=None, manual_na
             if error_after != error_before:
                 raise SceneError(error_after)
             return error_after
-        alone = copy.deepcopy(after["views"][view])
-        given = set(gives)
-        if "fps" not in given:
-            alone["fps"] = _STAND_INS["fps"]
-        if "origin_px" not in given:
-            alone["origin_px"] = _STAND_INS["origin_px"]
-        if "axes" not in given:
-            alone["axes"] = ["+" + ORTHOGONAL_VIEWS[view][0], "+" + ORTHOGONAL_VIEWS[view][1]]
-        if "ruler" not in given:
-            for k in SCALE_KEYS:
-                alone.pop(k, None)
-            alone["m_per_px"] = _STAND_INS["m_per_px"]
+        alone = with_stand_ins(after["views"][view], view, gives)
         try:
             parse_scene({"schema": 1, "views": {view: alone}}, folder=folder, label=label,
                         path=path)

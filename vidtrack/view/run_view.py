@@ -19,7 +19,7 @@ import numpy as np
 
 from vidtrack.errors import SceneError, VidtrackError
 from vidtrack.scene.model import SCENE_FILE
-from vidtrack.view.edits import ORTHOGONAL_VIEWS, SCALE_KEYS
+from vidtrack.view.edits import ORTHOGONAL_VIEWS, SET_UP, with_stand_ins
 
 __all__ = ["RunView", "DISPLAY_WIDTH_PX", "MANUAL_COLOUR", "TARGET_COLOUR"]
 
@@ -36,45 +36,21 @@ PAGE_TRAIL_FRAMES = 30
 
 def _valid_alone(folder, path, name, raw):
     """The view parsed alone, each set-up value the loader refuses replaced by a
-    stand-in; and which of origin, axes, scale are the file's own (not stand-ins)."""
+    stand-in (:func:`~vidtrack.view.edits.with_stand_ins`); and which set-up values are
+    the file's own (the others are not drawn)."""
     from vidtrack.scene.read import parse_scene
 
-    stand = {"fps": 1000.0, "origin_px": [0.0, 0.0],
-             "axes": ["+" + ORTHOGONAL_VIEWS[name][0], "+" + ORTHOGONAL_VIEWS[name][1]]}
-    base = {k: v for k, v in raw.items() if k not in SCALE_KEYS and k not in stand}
-    base.update(stand)
-    base["m_per_px"] = 0.001
-    own = set()
-    for key in ("fps", "origin_px", "axes", "scale"):
-        probe = dict(base)
-        if key == "scale":
-            if not any(k in raw for k in SCALE_KEYS):
-                continue
-            probe.pop("m_per_px")
-            probe.update({k: raw[k] for k in SCALE_KEYS if k in raw})
-        elif key in raw:
-            probe[key] = raw[key]
-        else:
-            continue
+    def parsed(keep):
         try:
-            parse_scene({"schema": 1, "views": {name: probe}}, folder=folder, label=str(path),
-                        path=path)
+            scene = parse_scene({"schema": 1, "views": {name: with_stand_ins(raw, name, keep)}},
+                                folder=folder, label=str(path), path=path)
         except SceneError:
-            continue
-        own.add(key)
-    view = dict(base)
-    for key in own:
-        if key == "scale":
-            view.pop("m_per_px")
-            view.update({k: raw[k] for k in SCALE_KEYS if k in raw})
-        else:
-            view[key] = raw[key]
-    try:
-        scene = parse_scene({"schema": 1, "views": {name: view}}, folder=folder,
-                            label=str(path), path=path)
-    except SceneError:
-        return None, set()
-    return scene.views[name], own
+            return None
+        return scene.views[name]
+
+    own = {key for key in SET_UP if parsed({key}) is not None}
+    view = parsed(own)
+    return (view, own) if view is not None else (None, set())
 
 
 class _Footage:
@@ -174,7 +150,7 @@ class RunView:
 
     def _view_spec(self, name, raw):
         if self.scene is not None:
-            return self.scene.views.get(name), {"fps", "origin_px", "axes", "scale"}
+            return self.scene.views.get(name), set(SET_UP)
         if name not in ORTHOGONAL_VIEWS or not isinstance(raw, dict):
             return None, set()
         return _valid_alone(self.folder, self.scene_path, name, raw)
