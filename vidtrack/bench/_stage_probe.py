@@ -8,8 +8,10 @@ same calls in the same order:
 - the fit stage: the views' cross-checks, :func:`fits.lsq.fit_throw`, the views' scales
   carried into k (:func:`vidtrack.run.scale_error.scale_error`), the perspective's
   effect (:func:`vidtrack.run.perspective.perspective_effect`) and fit.json's record;
-- the report stage: report.html (the fitted curves, the tracks plot, the contact sheet
-  of crops of the footage) and report.md.
+- the report stage: report.html (the fitted curves, the residuals in pixels, the tracks
+  plot, the trajectory over a full frame of each view, the contact sheet of crops of
+  the footage) and report.md (a checkout before the residuals in pixels: without them
+  and the trajectory).
 
 Each stage's first call is ``cold`` (what it imports and loads for itself counted),
 then ``warm`` counted calls follow. Before the clock starts the process has loaded what
@@ -90,17 +92,26 @@ def _stages(run):
         return fit, throw_record(scene, fit, timings_s={"fit": 0.0}, extra=extra)
 
     def report_stage(fit, record):
-        from vidtrack.report.contact_sheet import contact_sheet_html
         from vidtrack.report.run_page import render_html, render_markdown
         from vidtrack.report.view_path import view_paths
 
         views = {n: tr.data for n, tr in tracks.items()}
         paths = view_paths(scene, record, world.data, positions=fit.predict,
                            frame_shapes={n: tr.frame_shape for n, tr in tracks.items()})
-        sheet = contact_sheet_html(scene, scene.folder, views, paths)
+        try:
+            from vidtrack.report.trajectory import footage_html, pixel_residuals
+        except ImportError:                      # a checkout before the pixel residuals
+            from vidtrack.report.contact_sheet import contact_sheet_html
+
+            sheet = contact_sheet_html(scene, scene.folder, views, paths)
+            html = render_html(record, fit=fit, world=world.data, views=views,
+                               contact_sheet=sheet)
+            return {"report.md": render_markdown(record), "report.html": html}
+        px = pixel_residuals(views, paths)
+        sheet = footage_html(scene, scene.folder, views, paths)
         html = render_html(record, fit=fit, world=world.data, views=views,
-                           contact_sheet=sheet)
-        return {"report.md": render_markdown(record), "report.html": html}
+                           contact_sheet=sheet, px_residuals=px)
+        return {"report.md": render_markdown(record, px_residuals=px), "report.html": html}
 
     return fit_stage, report_stage
 

@@ -214,10 +214,37 @@ def sheet_image(crops, *, columns=4):
     return sheet
 
 
-def contact_sheet_html(scene, folder, tracks, paths):
+def open_views(scene, folder, names):
+    """Open the footage of the views ``names`` of ``scene`` (the caller closes them).
+
+    Returns
+    -------
+    (dict of str to FrameSource, list of str)
+        The views opened on the whole file, and why each other view was not (it gives
+        points, not footage; its footage cannot be read).
+    """
+    from vidtrack.footage import open_source
+
+    opened, missing = {}, []
+    for name in names:
+        view = scene.views[name]
+        if getattr(view, "points", None) is not None:
+            missing.append(f"view {name} gives points, not footage")
+            continue
+        src_path = view.source if folder == scene.folder else view.source_in(folder)
+        try:
+            opened[name] = open_source(src_path, fps=view.fps, channel=view.channel)
+        except Exception as exc:       # noqa: BLE001 (footage moved or unreadable)
+            missing.append(f"view {name}: the footage cannot be read ({exc})")
+    return opened, missing
+
+
+def contact_sheet_html(scene, folder, tracks, paths, *, sources=None, missing=()):
     """The report's contact-sheet section (HTML); it says why when there is no footage.
 
-    ``tracks``: {view: columns} of the merged tracks; ``paths``: {view: ViewPath}.
+    ``tracks``: {view: columns} of the merged tracks; ``paths``: {view: ViewPath};
+    ``sources``, ``missing``: the views already opened and why the others were not
+    (:func:`open_views`; the caller closes them), else they are opened and closed here.
     """
     import base64
 
@@ -226,28 +253,18 @@ def contact_sheet_html(scene, folder, tracks, paths):
     from vidtrack.report import _html
 
     head = "<h2>Contact sheet</h2>"
-    opened, missing = {}, []
+    own = sources is None
+    opened, missing = open_views(scene, folder, tracks) if own else (sources, list(missing))
     try:
-        from vidtrack.footage import open_source
-
-        for name in tracks:
-            view = scene.views[name]
-            if getattr(view, "points", None) is not None:
-                missing.append(f"view {name} gives points, not footage")
-                continue
-            src_path = view.source if folder == scene.folder else view.source_in(folder)
-            try:
-                opened[name] = open_source(src_path, fps=view.fps, channel=view.channel)
-            except Exception as exc:       # noqa: BLE001 (footage moved or unreadable)
-                missing.append(f"view {name}: the footage cannot be read ({exc})")
         if not opened:
             return head + (f'<p class="note">No footage to show: {_html.esc("; ".join(missing))}'
                            ".</p>")
         crops, notes = contact_crops(opened, tracks, paths,
                                      bit_depths={n: s.bit_depth for n, s in opened.items()})
     finally:
-        for s in opened.values():
-            s.close()
+        if own:
+            for s in opened.values():
+                s.close()
     if not crops:
         return head + '<p class="note">No frame to show.</p>'
     ok, png = cv2.imencode(".png", sheet_image(crops))

@@ -1,8 +1,9 @@
 """A run's report: report.md (text) and report.html (tables and plots) from its fit.
 
 Plots: each view's track over frames (flagged frames marked), the fitted curve over the
-measured points for each axis, and the residuals. Tables: k1..k4 with standard errors
-and 95 % intervals (or why not determined), the initial state, residuals and timings.
+measured points for each axis, and the residuals, in the world (mm) and in each view's
+pixels. Tables: k1..k4 with standard errors and 95 % intervals (or why not determined),
+the initial state, residuals (in metres per axis, in pixels per view) and timings.
 """
 
 import numpy as np
@@ -41,8 +42,24 @@ def _calibration(record):
                   "are the fit's part only."] + said
 
 
-def render_markdown(record):
-    """report.md: the k table, the initial state, residuals, points and timings."""
+#: The pixel residual table's columns (report.md and report.html).
+_PX_HEAD = ("view", "points", "residual RMS u (px)", "residual RMS v (px)",
+            "RMS distance (px)")
+
+
+def _px_rows(px_residuals):
+    """One row per view of :func:`vidtrack.report.trajectory.pixel_residuals`."""
+    return [(name, r.points, _html.num(r.rms_u_px, 3), _html.num(r.rms_v_px, 3),
+             _html.num(r.rms_px, 3)) for name, r in (px_residuals or {}).items()]
+
+
+def render_markdown(record, *, px_residuals=None):
+    """report.md: the k table, the initial state, residuals, points and timings.
+
+    ``px_residuals``: each view's residuals in pixels
+    (:func:`vidtrack.report.trajectory.pixel_residuals`), a table of their RMS under the
+    world residuals'.
+    """
     lines = [f"# vidtrack fit: {record['run']}", "",
              f"Model: {record['model']}, Cp = {record['cp_s_per_m']} s/m, "
              f"throws: {record['throws']}.", ""]
@@ -63,6 +80,9 @@ def render_markdown(record):
     lines += ["", "| axis | points | residual RMS (m) |", "| --- | --- | --- |"]
     lines += [f"| {a} | {record['points'][a]} | {_html.num(record['residual_rms_m'][a], 3)} |"
               for a in AXES]
+    if px_residuals:
+        lines += ["", "| " + " | ".join(_PX_HEAD) + " |", "|" + " --- |" * len(_PX_HEAD)]
+        lines += ["| " + " | ".join(map(str, r)) + " |" for r in _px_rows(px_residuals)]
     lines += ["", "Timings (s): " + ", ".join(f"{k} {v:.3g}"
                                               for k, v in record["timings_s"].items()), ""]
     summary = record.get("world") or {}
@@ -74,8 +94,10 @@ def render_markdown(record):
     for note in record.get("notes", []):
         lines.append(f"- {note}")
     if "views" in record:
-        lines += ["", "The contact sheet (crops of the footage round the straw, with the "
-                  "measured point, the fitted path and the flags) is in report.html; "
+        lines += ["", "The trajectory over a full frame of each view, the residuals in "
+                  "pixels over time and the contact sheet (crops of the footage round the "
+                  "straw, with the measured point, the fitted path and the flags) are in "
+                  "report.html; "
                   "`vidtrack overlay RUN` draws the same on every frame."]
     return "\n".join(lines) + "\n"
 
@@ -135,6 +157,28 @@ def _fit_plot(world, curves):
         top.legend(fontsize=8)
     fig.subplots_adjust(left=0.07, right=0.99, top=0.95, bottom=0.08, wspace=0.32,
                         hspace=0.12)
+    return _html.few_ticks(fig)
+
+
+def _px_residual_plot(px_residuals):
+    """Each view's residuals in pixels (u and v) against the fit's time, one panel a
+    view, their RMS in the title."""
+    n = max(len(px_residuals), 1)
+    h = 2.4 * n
+    fig = _html.figure(10, h)
+    axs = np.atleast_1d(fig.subplots(n, 1))
+    for ax, (name, r) in zip(axs, px_residuals.items()):
+        ax.plot(r.t_s, r.du_px, ".", ms=2, color="tab:blue", label="u")
+        ax.plot(r.t_s, r.dv_px, ".", ms=2, color="tab:orange", label="v")
+        ax.axhline(0, color="k", lw=0.8)
+        ax.set_title(f"{name} view: measured - fitted, RMS u {_html.num(r.rms_u_px, 3)} px, "
+                     f"v {_html.num(r.rms_v_px, 3)} px ({r.points} unflagged points)",
+                     y=_html.TITLE_Y)
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("residual (px)")
+        ax.legend(fontsize=8)
+    fig.subplots_adjust(left=0.08, right=0.99, top=1 - 0.3 / h, bottom=0.5 / h,
+                        hspace=1.0 / 2.4)
     return _html.few_ticks(fig)
 
 
@@ -199,13 +243,15 @@ def with_contact_sheet(html, section):
 
 
 def render_html(record, *, fit=None, world=None, views=None, tracks_img=None, curves=None,
-                contact_sheet=None):
+                contact_sheet=None, px_residuals=None):
     """report.html: the tables of report.md and the plots, self-contained.
 
     ``tracks_img``: the tracks plot already drawn (:func:`tracks_image`), else it is
     drawn from ``views``; ``curves``: :func:`fit_curves`, else computed from ``fit``;
-    ``contact_sheet``: the section of :func:`vidtrack.report.contact_sheet.
-    contact_sheet_html` (without it, a slot :func:`with_contact_sheet` fills).
+    ``contact_sheet``: the sections drawn on the footage (:func:`vidtrack.report.
+    trajectory.footage_html`: the trajectory over a full frame, the contact sheet; without
+    it, a slot :func:`with_contact_sheet` fills); ``px_residuals``: each view's residuals
+    in pixels (:func:`vidtrack.report.trajectory.pixel_residuals`), their table and plot.
     """
     parts = [f"<p>Model <b>{_html.esc(record['model'])}</b>, Cp = "
              f"{_html.num(record['cp_s_per_m'])} s/m, throws: {record['throws']}.</p>"]
@@ -234,6 +280,13 @@ def render_html(record, *, fit=None, world=None, views=None, tracks_img=None, cu
     if curves is not None and world is not None:
         parts += ["<h2>Fitted curves over the measured points</h2>",
                   _html.png(_fit_plot(world, curves), alt="fit")]
+    if px_residuals:
+        parts += ["<h2>Residuals in pixels</h2>",
+                  "<p>Each view's unflagged measured points minus the fitted path put into "
+                  "the view's pixels at the same frame (u: column, v: row).</p>",
+                  _html.table(_PX_HEAD, [tuple(_html.esc(c) for c in r)
+                                         for r in _px_rows(px_residuals)]),
+                  _html.png(_px_residual_plot(px_residuals), alt="residuals in pixels")]
     summary = record.get("world") or {}
     if "rotation" in summary and world is not None and "frame" in world:
         parts.append("<h2>Calibrated cameras</h2>")

@@ -244,7 +244,7 @@ def _process_main(conn, level=logging.WARNING):
 def _serve(conn, kept=None):
     """Jobs: ``("track", scene, folder, name, settings, quiet, report)`` -> the Track's
     fields; ``("views", columns)`` -> nothing (the tracks plot is drawn and kept);
-    ``("page", record, curves, world)`` -> report.html's text. A job's error goes back
+    ``("page", record, curves, world, px_residuals)`` -> report.html's text. A job's error goes back
     in its place. After a track job with ``report`` matplotlib is loaded at once, while
     the caller merges and fits (once per process: a run's throws share it). ``kept``: the
     records logged meanwhile, sent with each answer."""
@@ -268,11 +268,11 @@ def _serve(conn, kept=None):
                 # the Track's fields, not the Track: this process never loads pandas
                 value = track_view(scene, folder, name, settings, quiet=quiet, parts=True)
             else:
-                record, curves, world = args
+                record, curves, world, px_residuals = args
                 if isinstance(tracks_img, Exception):
                     raise tracks_img
                 value = render_html(record, world=world, curves=curves,
-                                    tracks_img=tracks_img)
+                                    tracks_img=tracks_img, px_residuals=px_residuals)
                 tracks_img = None
             result = ("ok", value)
         except SystemExit:
@@ -345,14 +345,18 @@ class ViewProcess:
         except OSError:                      # gone: render() will find out
             pass
 
-    def render(self, record, *, fit, world):
-        """report.html's text drawn in the process; None if the process is gone."""
+    def render(self, record, *, fit, world, px_residuals=None):
+        """report.html's text drawn in the process; None if the process is gone.
+
+        ``px_residuals``: the views' residuals in pixels
+        (:func:`vidtrack.report.trajectory.pixel_residuals`), for their table and plot."""
         from vidtrack.report.run_page import fit_curves
 
         try:
             # the curves, not the fit, and columns, not frames: the process loads neither
             # the fitting code nor pandas
-            self.conn.send(("page", record, fit_curves(world, fit), _columns(world)))
+            self.conn.send(("page", record, fit_curves(world, fit), _columns(world),
+                            px_residuals))
             return self._result("drawing the report")
         except (WorkerGone, OSError):
             return None

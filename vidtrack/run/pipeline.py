@@ -569,39 +569,61 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
 def _render_report(record, fit, world, tracks, helper, timings, *, scene=None, folder=None):
     """report.md and report.html as text (written after fit.json).
 
-    With ``scene`` and ``folder`` the page has the contact sheet (crops of the footage,
-    read and drawn here while the helper draws the plots)."""
+    With ``scene`` the page has each view's residuals in pixels, and with ``folder`` too
+    the sections drawn on the footage (the trajectory over a full frame, the contact
+    sheet: read and drawn here, after the helper drew the plots)."""
     from vidtrack.report.run_page import render_html, render_markdown, with_contact_sheet
 
     t0 = time.perf_counter()
+    paths = _view_paths(scene, record, fit, world, tracks) if scene else None
+    px = None
+    if paths is not None:
+        from vidtrack.report.trajectory import pixel_residuals
+
+        px = pixel_residuals({n: tr.data for n, tr in tracks.items()}, paths)
     # drawn by the process that tracked the second view, if it is there (it loaded
     # matplotlib and drew the tracks plot while this one fitted)
-    html = helper.render(record, fit=fit, world=world.data) if helper else None
-    sheet = _contact_sheet(scene, folder, record, fit, world, tracks) if scene else None
+    html = (helper.render(record, fit=fit, world=world.data, px_residuals=px) if helper
+            else None)
+    sheet = _footage(scene, folder, tracks, paths) if scene else None
     if html is None:
         html = render_html(record, fit=fit, world=world.data,
                            views={n: tr.data for n, tr in tracks.items()},
-                           contact_sheet=sheet)
+                           contact_sheet=sheet, px_residuals=px)
     elif sheet is not None:
         html = with_contact_sheet(html, sheet)
-    pages = {"report.md": render_markdown(record), "report.html": html}
+    pages = {"report.md": render_markdown(record, px_residuals=px), "report.html": html}
     timings["report"] = time.perf_counter() - t0
     return pages
 
 
-def _contact_sheet(scene, folder, record, fit, world, tracks):
-    """The report's contact-sheet section; a failure to draw it is said in its place."""
-    from vidtrack.report import _html
-    from vidtrack.report.contact_sheet import contact_sheet_html
+def _view_paths(scene, record, fit, world, tracks):
+    """The fitted path in each view's pixels; None (and a warning) when it cannot be put
+    there: the report then stands without what is drawn in pixels."""
     from vidtrack.report.view_path import view_paths
 
     try:
-        paths = view_paths(scene, record, world.data, positions=fit.predict,
-                           frame_shapes={n: tr.frame_shape for n, tr in tracks.items()})
-        return contact_sheet_html(scene, folder, {n: tr.data for n, tr in tracks.items()},
-                                  paths)
-    except Exception as exc:     # noqa: BLE001 (the report stands without its crops)
-        log.warning("the contact sheet could not be drawn: %s: %s", type(exc).__name__, exc)
+        return view_paths(scene, record, world.data, positions=fit.predict,
+                          frame_shapes={n: tr.frame_shape for n, tr in tracks.items()})
+    except Exception as exc:     # noqa: BLE001 (the report stands without it)
+        log.warning("the fitted path could not be put into the views' pixels: %s: %s",
+                    type(exc).__name__, exc)
+        return None
+
+
+def _footage(scene, folder, tracks, paths):
+    """The report's sections drawn on the footage (the trajectory over a full frame, the
+    contact sheet); a failure to draw them is said in their place."""
+    from vidtrack.report import _html
+    from vidtrack.report.trajectory import footage_html
+
+    try:
+        if paths is None:
+            raise ValueError("the fitted path could not be put into the views' pixels")
+        return footage_html(scene, folder, {n: tr.data for n, tr in tracks.items()}, paths)
+    except Exception as exc:     # noqa: BLE001 (the report stands without its images)
+        log.warning("the footage's images could not be drawn: %s: %s", type(exc).__name__,
+                    exc)
         return (f'<h2>Contact sheet</h2><p class="note">Not drawn: '
                 f"{_html.esc(type(exc).__name__)}: {_html.esc(exc)}</p>")
 
