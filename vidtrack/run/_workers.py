@@ -244,10 +244,10 @@ def _process_main(conn, level=logging.WARNING):
 def _serve(conn, kept=None):
     """Jobs: ``("track", scene, folder, name, settings, quiet, report)`` -> the Track's
     fields; ``("views", columns)`` -> nothing (the tracks plot is drawn and kept);
-    ``("page", record, curves, world, px_residuals)`` -> report.html's text. A job's error goes back
-    in its place. After a track job with ``report`` matplotlib is loaded at once, while
-    the caller merges and fits (once per process: a run's throws share it). ``kept``: the
-    records logged meanwhile, sent with each answer."""
+    ``("page", record, curves, world, px_residuals)`` -> report.html's text. A job's
+    error goes back in its place. After a track job with ``report`` matplotlib is loaded
+    at once, while the caller merges and fits (once per process: a run's throws share
+    it). ``kept``: the records logged meanwhile, sent with each answer."""
     from vidtrack.report.run_page import render_html, tracks_image
 
     warm, tracks_img = False, None
