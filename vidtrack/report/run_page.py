@@ -166,7 +166,8 @@ def _px_residual_plot(px_residuals):
     n = max(len(px_residuals), 1)
     h = 2.4 * n
     fig = _html.figure(10, h)
-    axs = np.atleast_1d(fig.subplots(n, 1))
+    # one time axis (the fit's t): tick labels only under the last panel
+    axs = np.atleast_1d(fig.subplots(n, 1, sharex=True))
     for ax, (name, r) in zip(axs, px_residuals.items()):
         ax.plot(r.t_s, r.du_px, ".", ms=2, color="tab:blue", label="u")
         ax.plot(r.t_s, r.dv_px, ".", ms=2, color="tab:orange", label="v")
@@ -176,10 +177,12 @@ def _px_residual_plot(px_residuals):
                      f"{_html.num(r.rms_u_px, 3)} px, v (orange) RMS "
                      f"{_html.num(r.rms_v_px, 3)} px, {r.points} unflagged points",
                      y=_html.TITLE_Y)
-        ax.set_xlabel("t (s)")
         ax.set_ylabel("residual (px)")
+    axs[-1].set_xlabel("t (s)")
+    for ax in axs[:-1]:
+        ax.tick_params(labelbottom=False)
     fig.subplots_adjust(left=0.08, right=0.99, top=1 - 0.3 / h, bottom=0.5 / h,
-                        hspace=1.0 / 2.4)
+                        hspace=0.5 / 2.4)
     return _html.few_ticks(fig)
 
 
