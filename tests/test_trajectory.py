@@ -13,7 +13,6 @@ pixels are that noise.
 
 import base64
 import re
-import shutil
 
 import numpy as np
 import pandas as pd
@@ -21,22 +20,12 @@ import pytest
 
 cv2 = pytest.importorskip("cv2")
 
-from test_overlay import PALETTE, RUN42, nearest  # noqa: E402
+from test_contact_sheet import fitted  # noqa: E402,F401 (the sample run, fitted)
+from test_overlay import PALETTE, nearest  # noqa: E402
 
 #: The report's residual table in report.md: view, points, RMS u, RMS v, RMS distance.
 PX_ROW = re.compile(r"^\| (\w+) \| (\d+) \| ([0-9.e-]+) \| ([0-9.e-]+) \| ([0-9.e-]+) \|$",
                     re.M)
-
-
-@pytest.fixture(scope="module")
-def fitted(tmp_path_factory):
-    from conftest import run_vidtrack
-
-    run = tmp_path_factory.mktemp("trajectory") / "run"
-    shutil.copytree(RUN42, run, ignore=shutil.ignore_patterns("vidtrack"))
-    res = run_vidtrack("fit", run)
-    assert res.returncode == 0, res.stderr
-    return run
 
 
 def _truth(run, view):
