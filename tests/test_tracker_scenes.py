@@ -168,17 +168,22 @@ def test_toys_of_other_textures_are_measured_whole_or_flagged(tmp_path, seed):
 
 
 # --------------------------------------------------------------------- a rider
+@pytest.mark.parametrize("engine", ["rules", "flight"])
 @pytest.mark.parametrize("start_apart", [True, False])
 def test_a_second_rod_riding_along_and_crossing_is_never_measured_with_the_straw(
-        tmp_path, start_apart):
+        tmp_path, start_apart, engine):
     """A thinner, dimmer rod flies with the straw at the same speed and drifts across
     it (a rendered run once gave 99 % unflagged frames at 5.3 px RMS: the two measured
-    as one). Apart at first, or touching it from the first frame on."""
+    as one). Apart at first, or touching it from the first frame on. Where the two
+    overlap, the straw is either told apart from the rider (flagged MERGED: the rules
+    tracker, which measures a rod by its coverage centroid, 7 frames, 73 unflagged
+    within 0.25 px) or measured without it (the flight tracker's bar: all 80 frames
+    unflagged, the 58 where they overlap included, within 0.032 px)."""
     rng = np.random.default_rng(2)
     n = 80
     bg = texture(SHAPE, rng=rng, contrast=30.0)
     path = _ballistic(n, (40.0, 120.0), (1.8, -1.2), g=0.02)
-    frames = []
+    frames, overlap = [], []
     for i, (u, v) in enumerate(path):
         ang = 0.4 + 0.004 * i
         cov = rod_coverage(SHAPE, u, v, 30.0, 3.0, ang)
@@ -187,15 +192,19 @@ def test_a_second_rod_riding_along_and_crossing_is_never_measured_with_the_straw
         side = (-14.0 + 0.36 * i) if start_apart else (0.0 + 0.18 * i)
         nu, nv = -np.sin(ang), np.cos(ang)
         rider = rod_coverage(SHAPE, u + side * nu, v + side * nv, 24.0, 1.5, ang + 0.7)
+        overlap.append(np.any((cov > 0) & (rider > 0)))
         img = compose(bg, rider, 170.0)
         frames.append(compose(img.astype(float), cov, 225.0, rng=rng, noise=1.5))
-    tr = _track(tmp_path, frames)
+    tr = _track(tmp_path, frames, engine=engine)
     err = _check(tr, path, min_usable=5)
     # where the two touch the frame is flagged (or measured right)
     flags = tr.data["flags"].to_numpy()
     assert np.all((flags != 0) | (err <= 0.5))
     if start_apart:
-        assert np.count_nonzero(flags & MERGED) >= 5
+        overlap = np.array(overlap)
+        assert overlap.sum() >= 20
+        told_apart = np.count_nonzero(flags & MERGED) >= 5
+        assert told_apart or np.all(err[overlap] <= 0.1), np.round(err[overlap].max(), 3)
 
 
 # --------------------------------------------------------------------- a highlight
