@@ -51,7 +51,8 @@ def _k_of(truth, path):
 
 
 def _run_pairs(run_dir, experiment):
-    """(throw number, true k, fit record) per throw, and the run's true k (the mean)."""
+    """(throw number, true k, fit record) per throw, the run's true k (the mean) and the
+    run's own fit record (fit.json, read once: a single throw's is the run's)."""
     from vidtrack.scene import find_throw_dirs
 
     truth_path = run_dir / "truth.json"
@@ -59,16 +60,17 @@ def _run_pairs(run_dir, experiment):
                 f"synth {experiment.folder} --regression ...' (or --k-table)")
     no_fit = f"run 'vidtrack report {experiment.folder}' first"
     root = _read_json(truth_path, no_truth)
+    run_record = _read_json(run_dir / "vidtrack" / "fit.json", no_fit)
     throws = find_throw_dirs(run_dir)
     if not throws:
         k = _k_of(root, truth_path)
-        return [(1, k, _read_json(run_dir / "vidtrack" / "fit.json", no_fit))], k
+        return [(1, k, run_record)], k, run_record
     pairs = []
     for i, d in enumerate(throws, start=1):
         k = _k_of(_read_json(d / "truth.json", no_truth), d / "truth.json")
         pairs.append((i, k, _read_json(run_dir / "vidtrack" / d.name / "fit.json", no_fit)))
     mean = {r: float(np.mean([p[1][r] for p in pairs])) for r in RESPONSES}
-    return pairs, mean
+    return pairs, mean, run_record
 
 
 def _throw_row(run, throw, factors, truth, record):
@@ -288,9 +290,7 @@ def score_experiment(exp_dir, *, alpha=0.05):
     check_runs(experiment, [load_scene(d) for d in run_dirs])
     rows, records, true_k = [], [], []
     for d in run_dirs:
-        pairs, mean = _run_pairs(d, experiment)
-        run_record = _read_json(d / "vidtrack" / "fit.json",
-                                f"run 'vidtrack report {experiment.folder}' first")
+        pairs, mean, run_record = _run_pairs(d, experiment)
         factors = {f.name: float(run_record["factors"][f.name])
                    for f in experiment.factors.values()}
         rows += [_throw_row(run_record["run"], n, factors, k, rec) for n, k, rec in pairs]
