@@ -49,12 +49,21 @@ def _check(tr, truth, *, min_usable, where=None):
 
 
 # --------------------------------------------------------------------- a shadow
+@pytest.mark.parametrize("engine", ["rules", "flight"])
 @pytest.mark.parametrize("ball_level", [225.0, 60.0])
-def test_a_shadow_is_never_part_of_the_ball(tmp_path, ball_level):
+def test_a_shadow_is_never_part_of_the_ball(tmp_path, ball_level, engine, request):
     """A ball before a light wall and its shadow, a blurred darker copy a few pixels
     below and to the right that touches it and falls behind it (a launcher's lamp
-    above the camera). Bright ball: the shadow is of the other polarity. Dark ball:
-    of the same polarity, lighter than the ball and blurred."""
+    above the camera). Bright ball: the shadow is of the other polarity, more of the
+    detection than the ball (the flight tracker took it for a dark body with the ball
+    its highlight, every unflagged frame 4-6 px towards the shadow, until it told a
+    highlight, inside its body, from a bright object beside its shadow). Dark ball: of
+    the same polarity, lighter than the ball and blurred."""
+    if engine == "flight" and ball_level == 60.0:
+        request.applymarker(pytest.mark.xfail(strict=True, reason=(
+            "flight tracker: the shadow of the dark ball's polarity is read as part of its "
+            "coverage (its spreads fitted 5.3 x 3.3 px against the ball's 3 x 3): 66 of 70 "
+            "frames unflagged, 2.2-3.9 px towards the shadow")))
     rng = np.random.default_rng(1)
     n = 70
     wall = texture(SHAPE, rng=rng, mean=185.0, contrast=12.0, scale=6.0)
@@ -66,7 +75,7 @@ def test_a_shadow_is_never_part_of_the_ball(tmp_path, ball_level):
                               darkness=0.45, blur_px=1.8)
         frames.append(compose(wall * shade, disc_coverage(SHAPE, u, v, 6.0), ball_level,
                               rng=rng, noise=1.5))
-    tr = _track(tmp_path, frames)
+    tr = _track(tmp_path, frames, engine=engine)
     _check(tr, path, min_usable=0.6 * n)
 
 

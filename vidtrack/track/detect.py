@@ -68,7 +68,8 @@ DETECTION_DTYPE = np.dtype([("u", "f8"), ("v", "f8"), ("weight", "f8"), ("area",
                             ("ratio_p10", "f4"), ("texture_r", "f4"),
                             ("snr", "f4"), ("shadow", "?"), ("textured", "?"), ("border", "?"),
                             ("level", "f4"), ("obj_level", "f4"), ("mixed", "?"),
-                            ("body_level", "f4")])
+                            ("body_level", "f4"), ("beside_shadow", "?"),
+                            ("lit_level", "f4")])
 
 _KERNEL3 = np.ones((3, 3), np.uint8)
 
@@ -317,6 +318,34 @@ def _percentile_by_label(values, labels, n, q):
     return out
 
 
+def _beside_its_shadow(d, gl, dim, li, m, at, shape, enclosed):
+    """Which detections are a bright object beside its shadow: their pixels darker than
+    the background beyond ``gl`` are all dimmed by a shadow's factor (``dim``), and
+    their brighter pixels beyond ``gl`` are not a highlight on that darker part (less
+    than ``enclosed`` of the ring round them is the darker part: a highlight lies
+    inside its body).
+
+    ``at`` are the pixels' (row, column) in a crop of ``shape``; ``li`` their
+    detection (0..m-1)."""
+    bright, dark = d > gl, d < -gl
+    n_dark = np.bincount(li, dark, m)
+    maybe = (np.bincount(li, bright, m) > 0) & (n_dark > 0) & (
+        np.bincount(li, dark & ~dim, m) <= ONE_LEVEL_SHARE * n_dark)
+    if not maybe.any():
+        return maybe
+    rows, cols = at
+    img = np.zeros(shape, np.uint8)
+    img[rows[bright], cols[bright]] = 1
+    lab = np.zeros(shape, np.int32)
+    lab[rows, cols] = li + 1
+    darkimg = np.zeros(shape, bool)
+    darkimg[rows[dark], cols[dark]] = True
+    ring = (cv2.dilate(img, _KERNEL3) > 0) & (img == 0) & (lab > 0)
+    rl = lab[ring] - 1
+    share = np.bincount(rl, darkimg[ring], m) / np.maximum(np.bincount(rl, minlength=m), 1)
+    return maybe & (share < enclosed)
+
+
 def pixel_weights(d, b, sigma, level, obj, mixed=False, grow=None):
     """Each pixel's share of its object.
 
@@ -490,6 +519,13 @@ class Detector:
         # (the detection is weighed as one of several tones, by its bounded difference,
         # until its chain shows it a body with a highlight)
         obj = np.where(one_level, obj, np.nan)
+        # (a mixed object may be a bright object beside its shadow: measured as such where
+        # its chain shows it so, at the level of its bright pixels)
+        beside = mixed & _beside_its_shadow(d, gl, ratio_all >= s.shadow_ratio_min, li, m,
+                                            (ys - r0, xs - c0), own.shape,
+                                            s.highlight_enclosed)
+        lit_level = (_percentile_by_label(fv, li, m, 0.9) if beside.any()
+                     else np.full(m, np.nan))
         w = pixel_weights(d, bgv, self.sigma[ys, xs], level[li], obj[li])
         if light is not None:
             # (the ring grown round a detection weighs no shadow's pixel)
@@ -543,6 +579,7 @@ class Detector:
         out["textured"] = textured
         out["level"], out["obj_level"], out["mixed"] = level, obj, mixed
         out["body_level"] = body_level
+        out["beside_shadow"], out["lit_level"] = beside, lit_level
         out = out[good]
         if out.size > MAX_DETECTIONS:
             out = out[np.argsort(out["snr"])[::-1][:MAX_DETECTIONS]]

@@ -34,9 +34,9 @@ from vidtrack.track.detect import Detector
 from vidtrack.track.flag import REASON_COLUMN, bridge_gaps, judge, reason_codes
 from vidtrack.track.joined import follow_back
 from vidtrack.track.link import link
-from vidtrack.track.measure import (BAR_COLUMNS, bar_moments, chain_shape, has_highlight,
-                                    is_rod, measure_frame, fit_shape, moment_axes,
-                                    SHAPE_FRAMES)
+from vidtrack.track.measure import (BAR_COLUMNS, bar_moments, beside_its_shadow,
+                                    chain_shape, fit_shape, has_highlight, is_rod,
+                                    measure_frame, moment_axes, SHAPE_FRAMES)
 from vidtrack.track.rod import END_COLUMNS, MIN_LENGTH_PX
 from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
@@ -213,6 +213,7 @@ def _measure(source, held, detector, detections, chain, shape, settings, cancel,
     wanted = set(int(i) for i in chain.frames)
     dets = [detections[i][chain.pick[i]] for i in chain.frames]
     highlight = has_highlight(dets, settings)
+    beside = highlight and beside_its_shadow(dets, settings)
     if not highlight:
         shape = _model_shape(_getter(source, held, steady), detections, chain, shape,
                              detector, settings)
@@ -221,7 +222,10 @@ def _measure(source, held, detector, detections, chain, shape, settings, cancel,
         if i not in wanted:
             continue
         det = detections[i][chain.pick[i]]
-        if det["mixed"] and highlight:
+        if det["mixed"] and beside:
+            det = det.copy()
+            det["obj_level"], det["mixed"] = det["lit_level"], False
+        elif det["mixed"] and highlight:
             det = det.copy()
             det["obj_level"] = det["body_level"]
         got = measure_frame(frame, detector.bg, detector.sigma, det, shape, settings,

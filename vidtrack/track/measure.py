@@ -27,7 +27,8 @@ from vidtrack.track.rod import fit_rod
 from vidtrack.track.path import robust_scale
 
 __all__ = ["Shape", "Measured", "measure_frame", "fit_shape", "SHAPE_FRAMES", "rod_at",
-           "chain_shape", "has_highlight", "BAR_COLUMNS", "bar_moments", "moment_axes"]
+           "chain_shape", "has_highlight", "beside_its_shadow", "BAR_COLUMNS", "bar_moments",
+           "moment_axes"]
 
 #: The per-frame bar of a rod (:func:`measure_frame`): half length, half width (px),
 #: coverage, misfit, angle (rad), blurs across and along (px).
@@ -121,6 +122,15 @@ def has_highlight(dets, settings):
         return False
     body = [bool(d["mixed"]) and np.isfinite(d["body_level"]) for d in dets]
     return float(np.mean(body)) >= settings.highlight_frames
+
+
+def beside_its_shadow(dets, settings):
+    """Whether a body with a highlight (:func:`has_highlight`) is a bright object beside
+    its shadow: in at least ``highlight_frames`` of its frames, its brighter part is not
+    inside its darker part and the darker part is all dimmed by a shadow's factor
+    (:func:`vidtrack.track.detect.Detector`, ``highlight_enclosed``)."""
+    return bool(dets) and float(np.mean([bool(d["beside_shadow"]) for d in dets])) >= \
+        settings.highlight_frames
 
 
 def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=None):

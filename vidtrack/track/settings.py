@@ -16,7 +16,7 @@ from vidtrack.errors import VidtrackError
 __all__ = ["TrackerSettings", "ALGORITHM_VERSION"]
 
 #: Changes whenever the flight tracker's results may change for the same settings.
-ALGORITHM_VERSION = "flight-13"
+ALGORITHM_VERSION = "flight-14"
 
 
 @dataclass(frozen=True)
@@ -150,6 +150,12 @@ class TrackerSettings:
         its polarity beside it, a rider of half its contrast, is not in it): its
         highlight, and the pixels beside it where the two cancel, cover fully inside the
         core's convex hull.
+    highlight_enclosed : float
+        A detection's pixels brighter than the background are a highlight on its darker
+        pixels where at least this share of the ring round them is the darker part (a
+        highlight lies inside its body); less, and its darker pixels all dimmed by a
+        shadow's factor (``shadow_ratio_min``), it is a bright object beside its shadow,
+        measured without it.
     model_max_misfit : float
         A compact object is measured by the ellipse fitted to it only where the ellipse
         explains it: its RMS residual over the best-explained 90 % of its footprint
@@ -232,6 +238,7 @@ class TrackerSettings:
     highlight_one_side: float = 0.9
     highlight_frames: float = 0.5
     highlight_core: float = 0.75
+    highlight_enclosed: float = 0.5
     model_max_misfit: float = 0.12
     bar_cap_px: float = 2.0
     camera_agree_share: float = 1.0 / 3.0
@@ -260,6 +267,7 @@ class TrackerSettings:
             raise VidtrackError(f"track.release_push_deg must be at most 180 (degrees), got "
                                 f"{self.release_push_deg:g}")
         for name in ("highlight_one_side", "highlight_frames", "highlight_core",
+                     "highlight_enclosed",
                      "camera_agree_share", "joined_cover", "stood_share"):
             if getattr(self, name) > 1.0:
                 raise VidtrackError(f"track.{name} must be at most 1 (a share), got "
