@@ -153,6 +153,23 @@ def test_points_by_hand_and_excluded_frames(tmp_path):
     assert load_scene(run).views["front"].target == (30, (150.0, 60.0))
 
 
+def test_frames_drawn_from_the_run_as_last_read(tmp_path):
+    """The corrections are read once per change: a frame asked for shows the run as the
+    page last read it (after an edit, a fit, or the state asked for), and the manual
+    points file changed behind the page shows once the state is asked for again."""
+    run = copy_run(tmp_path / "run")
+    c = client(run)
+    assert edit(c, set="point", frame=12, at_px=[150.5, 60.25]).status_code == 200
+    assert edit(c, set="exclude", frame=13, excluded=True).status_code == 200
+    (run / "front_manual.csv").write_text("frame,u_px,v_px\n12,99.5,40.0\n14,1.0,2.0\n")
+    assert c.get("/api/frame/front/12").json["manual_px"] == [150.5, 60.25]
+    assert c.get("/api/frame/front/14").json["manual_px"] is None
+    assert c.get("/api/state").status_code == 200
+    assert c.get("/api/frame/front/12").json["manual_px"] == [99.5, 40.0]
+    assert c.get("/api/frame/front/14").json["manual_px"] == [1.0, 2.0]
+    assert c.get("/api/frame/front/13").json["excluded"] is True
+
+
 def _bad_cases():
     return [
         (dict(set="origin", at_px=[81, "x"]), "views.front.origin_px must be a pixel"),
