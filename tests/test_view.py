@@ -170,6 +170,34 @@ def test_frames_drawn_from_the_run_as_last_read(tmp_path):
     assert c.get("/api/frame/front/13").json["excluded"] is True
 
 
+def test_target_removed_rest_of_the_file_byte_for_byte(tmp_path):
+    """A target written by hand (with its comment) removed from the page: scene.toml is
+    the file it was without that line, and the loader finds no target."""
+    from vidtrack.scene import load_scene
+
+    run = copy_run(tmp_path / "run")
+    original = (RUN42 / "scene.toml").read_text()
+    line = "target = { frame = 30, at_px = [150.0, 60.0] }   # the straw, not the chaff\n"
+    anchor = "origin_px = [80.49, 69.76]\n"
+    (run / "scene.toml").write_text(original.replace(anchor, anchor + line))
+    c = client(run)
+    assert c.get("/api/state").json["views"]["front"]["target"] == {
+        "frame": 30, "at_px": [150.0, 60.0]}
+    assert c.get("/api/frame/front/30").json["target_px"] == [150.0, 60.0]
+    r = edit(c, set="target", at_px=None)
+    assert r.status_code == 200 and r.json["written"] == ["scene.toml"]
+    assert (run / "scene.toml").read_text() == original
+    assert load_scene(run).views["front"].target is None
+    assert c.get("/api/state").json["views"]["front"]["target"] is None
+    assert c.get("/api/frame/front/30").json["target_px"] is None
+    before = digests(run)
+    r = edit(c, set="target", at_px=None)
+    assert r.status_code == 400
+    assert r.json["error"].endswith("views.front.target is not set; expected a target to "
+                                    "remove")
+    assert digests(run) == before
+
+
 def _bad_cases():
     return [
         (dict(set="origin", at_px=[81, "x"]), "views.front.origin_px must be a pixel"),

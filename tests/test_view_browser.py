@@ -2,7 +2,8 @@
 
 The real command serves the page on 127.0.0.1 (a child process); Selenium drives Debian's
 ``chromium`` through ``chromedriver``: it fits the run, clicks the frame to set the
-origin, steps frames, places a point by hand, excludes a frame, and types a bad fps.
+origin, steps frames, places a point by hand, excludes a frame, sets the target and
+removes it, and types a bad fps.
 Truth: tracks.csv written by the fit, the pixels the test clicked (worked out from the
 element's size and the display scale the page states), scene.toml and the manual points
 file read back by the scene loader and ``csv``. A screenshot of the page is kept
@@ -143,6 +144,15 @@ def test_set_up_and_correct_a_run_by_clicking(page, tmp_path):
     browser.find_element(By.ID, "exclude").click()
     wait.until(lambda d: "excluded: yes" in d.find_element(By.ID, "info").text)
     assert load_scene(run).views["front"].exclude_frames == ((3, 4),)
+    # the target clicked in this frame, then removed
+    browser.find_element(By.ID, "tool-target").click()
+    clicked, tol = click_frame(browser, (205.0, 55.0))
+    wait.until(lambda d: "target: frame 3 at" in d.find_element(By.ID, "info").text)
+    frame, at = load_scene(run).views["front"].target
+    assert frame == 3 and at == pytest.approx(clicked, abs=tol)
+    browser.find_element(By.ID, "remove-target").click()
+    wait.until(lambda d: "target: -" in d.find_element(By.ID, "info").text)
+    assert load_scene(run).views["front"].target is None
     # a bad fps: the loader's one line in the page, nothing written
     before = digest(run / "scene.toml")
     fps = browser.find_element(By.ID, "fps")

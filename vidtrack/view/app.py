@@ -4,7 +4,8 @@ Routes (all JSON but the page and the frames):
 
 - ``GET /``: the page (``static/view.html``);
 - ``GET /api/state``: the run read again (scene.toml, tracks, fit), its views (frame
-  count, size, display scale), the scene's remaining error, notes, the fit's state;
+  count, size, display scale, ``target``), the scene's remaining error, notes, the fit's
+  state;
 - ``GET /api/frame/<view>/<index>``: the frame's number, time, flags and reason,
   measured point and corrections (:meth:`RunView.frame_info`);
 - ``GET /frame/<view>/<index>.png``: the frame with the marks drawn (:meth:`RunView.render`);

@@ -236,6 +236,7 @@ class RunView:
                     else str(self._footage[name].path),
                     "tracked": name in self.tracks,
                     "fps": self._footage[name].fps,
+                    "target": self._data[name].target,
                 }
             run_name = self.scene.run_name if self.scene is not None else self.folder.name
             return {"run": run_name, "folder": str(self.folder), "views": views,

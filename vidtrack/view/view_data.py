@@ -27,7 +27,7 @@ class ViewData:
     manual : dict
         ``{frame: (u, v)}``: the points placed by hand (the ``manual_points`` file).
     target : dict or None
-        scene.toml's ``target`` (``frame``, ``at_px``), as written.
+        scene.toml's ``target``: ``{"frame": F, "at_px": [u, v]}``.
     frames : numpy.ndarray or None
         The tracked frame numbers (None: the view is not tracked).
     uv : (N, 2) numpy.ndarray or None
@@ -72,6 +72,19 @@ def _excluded(raw):
     return frozenset(out)
 
 
+def _target(raw):
+    """``{"frame": F, "at_px": [u, v]}`` of the view's ``target``; None when it is not
+    set or not of that form (the loader's message is the scene's error then)."""
+    t = raw.get("target")
+    if not isinstance(t, dict):
+        return None
+    frame, at = t.get("frame"), t.get("at_px")
+    if (isinstance(frame, bool) or not isinstance(frame, int) or not isinstance(at, list)
+            or len(at) != 2 or not all(isinstance(x, (int, float)) for x in at)):
+        return None
+    return {"frame": frame, "at_px": [float(x) for x in at]}
+
+
 def _manual(folder, scene_path, name, raw):
     """``{frame: (u, v)}`` of the view's manual points file; empty when none is named or
     it does not load (the loader's message is the scene's error then)."""
@@ -113,7 +126,6 @@ def view_data(folder, scene_path, name, raw, track=None, path=None):
     from vidtrack.report.overlay import camera_shifts
 
     raw = raw if isinstance(raw, dict) else {}
-    target = raw.get("target") if isinstance(raw.get("target"), dict) else None
     tracked = {}
     if track is not None:
         frames = track["frame"].to_numpy()
@@ -124,5 +136,5 @@ def view_data(folder, scene_path, name, raw, track=None, path=None):
             rows.setdefault(int(f), i)      # the first row of a frame, as before
         tracked = dict(frames=frames, uv=uv, shifts=shifts, table=track, rows=rows)
     return ViewData(excluded=_excluded(raw), manual=_manual(folder, scene_path, name, raw),
-                    target=target, path=path,
+                    target=_target(raw), path=path,
                     polyline=path.polyline() if path is not None else None, **tracked)

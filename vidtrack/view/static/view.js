@@ -74,6 +74,8 @@ async function show(i) {
     "measured: " + (info.u_px === null ? "-" : info.u_px.toFixed(2) + ", " + info.v_px.toFixed(2)),
     "placed by hand: " + (info.manual_px ? info.manual_px.join(", ") : "-"),
     "excluded: " + (info.excluded ? "yes" : "no"),
+    "target: " + (v.target ? "frame " + v.target.frame + " at " + v.target.at_px.join(", ")
+                           : "-"),
   ].join("\n");
 }
 
@@ -152,6 +154,7 @@ function init() {
                                      excluded: $("exclude").textContent.startsWith("exclude")});
   $("remove-point").onclick = () => edit({set: "point", frame: Number($("frame").dataset.frame),
                                           at_px: null});
+  $("remove-target").onclick = () => edit({set: "target", at_px: null});
   $("set-fps").onclick = () => edit({set: "fps", fps: Number($("fps").value)});
   $("fit").onclick = async () => {
     try { showFit(await api("/api/fit", {})); pollFit(); } catch (e) { say(e.message, "error"); }
