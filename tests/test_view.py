@@ -274,6 +274,58 @@ def test_frame_drawn_with_the_origin_where_it_was_clicked(tmp_path):
     assert "not a view" in c.get("/frame/side/0.png").json["error"]
 
 
+def decoded_frame(path, index):
+    """Frame ``index`` of the video as OpenCV decodes it, grey (the footage is grey)."""
+    cap = cv2.VideoCapture(str(path))
+    for _ in range(index + 1):
+        ok, img = cap.read()
+        assert ok
+    cap.release()
+    return img[..., 1].astype(int)
+
+
+@pytest.mark.parametrize("at, centre", [((150.4, 60.6), (150, 61)), ((1.0, 2.49), (1, 2))])
+def test_zoom_is_the_footage_pixels_magnified(tmp_path, at, centre):
+    """Each frame pixel around the one asked for is a block of the zoom, its value as
+    OpenCV decodes the frame; the centre pixel is outlined, outside the frame is black."""
+    from vidtrack.view.zoom import ZOOM_FACTOR, ZOOM_HALF_PX
+
+    run = copy_run(tmp_path / "run")
+    c = client(run)
+    r = c.get(f"/zoom/front/7.png?u={at[0]}&v={at[1]}")
+    assert r.status_code == 200 and r.mimetype == "image/png"
+    img = cv2.imdecode(np.frombuffer(r.data, np.uint8), cv2.IMREAD_COLOR).astype(int)
+    side = 2 * ZOOM_HALF_PX + 1
+    assert img.shape == (side * ZOOM_FACTOR, side * ZOOM_FACTOR, 3)
+    truth = decoded_frame(run / "front.avi", 7)
+    mid = ZOOM_FACTOR // 2
+    for i in range(side):
+        for j in range(side):
+            v, u = centre[1] + i - ZOOM_HALF_PX, centre[0] + j - ZOOM_HALF_PX
+            cell = img[i * ZOOM_FACTOR + mid, j * ZOOM_FACTOR + mid]
+            inside = 0 <= v < truth.shape[0] and 0 <= u < truth.shape[1]
+            expected = truth[v, u] if inside else 0
+            assert np.abs(cell - expected).max() <= 1, (u, v)
+    edge = img[ZOOM_HALF_PX * ZOOM_FACTOR, ZOOM_HALF_PX * ZOOM_FACTOR]
+    assert edge[0] < 60 < min(edge[1], edge[2])     # the outline: yellow (B, G, R) on grey
+
+
+@pytest.mark.parametrize("query, status, message", [
+    ("u=5&v=x", 400, "zoom: u and v must be the frame pixel to magnify"),
+    ("v=5", 400, "zoom: u and v must be the frame pixel to magnify"),
+    ("u=nan&v=5", 400, "zoom: u and v must be the frame pixel to magnify"),
+    ("u=5000&v=5", 400, "is outside the frame; expected u in 0.."),
+    ("u=5&v=-3", 400, "is outside the frame"),
+])
+def test_zoom_bad_pixel_one_line(tmp_path, query, status, message):
+    c = client(copy_run(tmp_path / "run"))
+    r = c.get(f"/zoom/front/7.png?{query}")
+    assert r.status_code == status and message in r.json["error"]
+    assert "\n" not in r.json["error"]
+    assert c.get("/zoom/front/372.png?u=5&v=5").status_code == 404
+    assert c.get("/zoom/side/0.png?u=5&v=5").status_code == 404
+
+
 def test_fit_from_the_page_uses_the_point_placed_by_hand(tmp_path):
     run = copy_run(tmp_path / "run")
     c = client(run)

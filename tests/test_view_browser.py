@@ -2,8 +2,8 @@
 
 The real command serves the page on 127.0.0.1 (a child process); Selenium drives Debian's
 ``chromium`` through ``chromedriver``: it fits the run, clicks the frame to set the
-origin, steps frames, places a point by hand, excludes a frame, sets the target and
-removes it, and types a bad fps.
+origin (the zoom following the pointer), steps frames, places a point by hand, excludes a
+frame, sets the target and removes it, and types a bad fps.
 Truth: tracks.csv written by the fit, the pixels the test clicked (worked out from the
 element's size and the display scale the page states), scene.toml and the manual points
 file read back by the scene loader and ``csv``. A screenshot of the page is kept
@@ -29,6 +29,8 @@ from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
 from test_view import copy_run, serve, stop  # noqa: E402
+
+from vidtrack.view.zoom import ZOOM_FACTOR, ZOOM_HALF_PX  # noqa: E402
 
 #: Debian's packages chromium and chromium-driver install these.
 CHROMIUM = "/usr/bin/chromium"
@@ -126,6 +128,18 @@ def test_set_up_and_correct_a_run_by_clicking(page, tmp_path):
     origin = load_scene(run).views["front"].origin_px
     assert origin == pytest.approx(clicked, abs=tol)
     assert origin == pytest.approx((150.0, 90.0), abs=2 * tol)
+    # the zoom follows the pointer: the footage's pixels around the pixel pointed at
+    def zoomed_at(d):
+        at = re.search(r"around ([-\d.]+), ([-\d.]+)", d.find_element(By.ID, "zoom-at").text)
+        return at is not None and [float(at[1]), float(at[2])] == pytest.approx(clicked,
+                                                                                 abs=tol)
+
+    wait.until(zoomed_at)
+    zoom = browser.find_element(By.ID, "zoom")
+    wait.until(lambda d: zoom.is_displayed() and d.execute_script(
+        "return arguments[0].complete && arguments[0].naturalWidth;", zoom))
+    assert browser.execute_script("return arguments[0].naturalWidth;", zoom) == (
+        (2 * ZOOM_HALF_PX + 1) * ZOOM_FACTOR)
     # two frames on, a point placed by hand
     browser.find_element(By.ID, "next").click()
     browser.find_element(By.ID, "next").click()

@@ -243,6 +243,14 @@ class RunView:
                     "scene_error": self.scene_error, "notes": list(self.notes)}
 
     # ------------------------------------------------------------------ one frame
+    def _frame_source(self, name, index):
+        """The view's footage, once ``index`` is checked to be one of its frames."""
+        src = self._source(name)
+        if not 0 <= index < len(src):
+            raise VidtrackError(f"frame {index}: not a frame of view {name} (0 to "
+                                f"{len(src) - 1})")
+        return src
+
     def frame_info(self, name, index):
         """The frame's number, time, flags and reason, measured point and corrections.
 
@@ -254,10 +262,7 @@ class RunView:
         from vidtrack.report.overlay import flag_text
 
         with self._lock:
-            src = self._source(name)
-            if not 0 <= index < len(src):
-                raise VidtrackError(f"frame {index}: not a frame of view {name} (0 to "
-                                    f"{len(src) - 1})")
+            src = self._frame_source(name, index)
             frame = int(src.frame_numbers[index])
             info = {"view": name, "index": index, "frame": frame,
                     "t_s": float(src.times_s[index]), "tracked": False, "flags": None,
@@ -323,11 +328,36 @@ class RunView:
                     c = (np.asarray(at, dtype=np.float64) + 0.5) * scale - 0.5
                     cv2.drawMarker(img, (int(round(c[0])), int(round(c[1]))), MANUAL_COLOUR,
                                    shape, MARKER_PX, 2, cv2.LINE_AA)
-            ok, png = cv2.imencode(".png", img)
-            if not ok:
-                raise VidtrackError(f"view {name}, frame {info['frame']}: cannot be encoded "
-                                    "as PNG")
-            return png.tobytes()
+            return _png(img, name, index)
+
+    def zoom(self, name, index, at_px):
+        """The footage's pixels around ``at_px`` in frame ``index`` of view ``name``,
+        magnified (:func:`vidtrack.view.zoom.zoom_image`), as PNG bytes.
+
+        Raises
+        ------
+        VidtrackError
+            An unknown view, or an index outside the footage.
+        ValueError
+            ``at_px`` is not a pixel of the frame (one line).
+        """
+        from vidtrack.report.overlay import to_bgr8
+        from vidtrack.view.zoom import zoom_centre, zoom_image
+
+        with self._lock:
+            src = self._frame_source(name, index)
+            centre = zoom_centre(at_px, src.shape[:2])
+            return _png(zoom_image(to_bgr8(src[index], src.bit_depth), centre), name, index)
+
+
+def _png(img, name, index):
+    """``img`` (BGR) as PNG bytes."""
+    import cv2
+
+    ok, png = cv2.imencode(".png", img)
+    if not ok:
+        raise VidtrackError(f"view {name}, frame {index}: cannot be encoded as PNG")
+    return png.tobytes()
 
 
 def _num(value):
