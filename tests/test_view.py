@@ -153,6 +153,51 @@ def test_points_by_hand_and_excluded_frames(tmp_path):
     assert load_scene(run).views["front"].target == (30, (150.0, 60.0))
 
 
+def test_frames_drawn_from_the_run_as_last_read(tmp_path):
+    """The corrections are read once per change: a frame asked for shows the run as the
+    page last read it (after an edit, a fit, or the state asked for), and the manual
+    points file changed behind the page shows once the state is asked for again."""
+    run = copy_run(tmp_path / "run")
+    c = client(run)
+    assert edit(c, set="point", frame=12, at_px=[150.5, 60.25]).status_code == 200
+    assert edit(c, set="exclude", frame=13, excluded=True).status_code == 200
+    (run / "front_manual.csv").write_text("frame,u_px,v_px\n12,99.5,40.0\n14,1.0,2.0\n")
+    assert c.get("/api/frame/front/12").json["manual_px"] == [150.5, 60.25]
+    assert c.get("/api/frame/front/14").json["manual_px"] is None
+    assert c.get("/api/state").status_code == 200
+    assert c.get("/api/frame/front/12").json["manual_px"] == [99.5, 40.0]
+    assert c.get("/api/frame/front/14").json["manual_px"] == [1.0, 2.0]
+    assert c.get("/api/frame/front/13").json["excluded"] is True
+
+
+def test_target_removed_rest_of_the_file_byte_for_byte(tmp_path):
+    """A target written by hand (with its comment) removed from the page: scene.toml is
+    the file it was without that line, and the loader finds no target."""
+    from vidtrack.scene import load_scene
+
+    run = copy_run(tmp_path / "run")
+    original = (RUN42 / "scene.toml").read_text()
+    line = "target = { frame = 30, at_px = [150.0, 60.0] }   # the straw, not the chaff\n"
+    anchor = "origin_px = [80.49, 69.76]\n"
+    (run / "scene.toml").write_text(original.replace(anchor, anchor + line))
+    c = client(run)
+    assert c.get("/api/state").json["views"]["front"]["target"] == {
+        "frame": 30, "at_px": [150.0, 60.0]}
+    assert c.get("/api/frame/front/30").json["target_px"] == [150.0, 60.0]
+    r = edit(c, set="target", at_px=None)
+    assert r.status_code == 200 and r.json["written"] == ["scene.toml"]
+    assert (run / "scene.toml").read_text() == original
+    assert load_scene(run).views["front"].target is None
+    assert c.get("/api/state").json["views"]["front"]["target"] is None
+    assert c.get("/api/frame/front/30").json["target_px"] is None
+    before = digests(run)
+    r = edit(c, set="target", at_px=None)
+    assert r.status_code == 400
+    assert r.json["error"].endswith("views.front.target is not set; expected a target to "
+                                    "remove")
+    assert digests(run) == before
+
+
 def _bad_cases():
     return [
         (dict(set="origin", at_px=[81, "x"]), "views.front.origin_px must be a pixel"),
@@ -227,6 +272,58 @@ def test_frame_drawn_with_the_origin_where_it_was_clicked(tmp_path):
     assert not bluish(img[old_v - 2:old_v + 3, old_u - 2:old_u + 3]).any()
     assert c.get("/frame/front/372.png").status_code == 404
     assert "not a view" in c.get("/frame/side/0.png").json["error"]
+
+
+def decoded_frame(path, index):
+    """Frame ``index`` of the video as OpenCV decodes it, grey (the footage is grey)."""
+    cap = cv2.VideoCapture(str(path))
+    for _ in range(index + 1):
+        ok, img = cap.read()
+        assert ok
+    cap.release()
+    return img[..., 1].astype(int)
+
+
+@pytest.mark.parametrize("at, centre", [((150.4, 60.6), (150, 61)), ((1.0, 2.49), (1, 2))])
+def test_zoom_is_the_footage_pixels_magnified(tmp_path, at, centre):
+    """Each frame pixel around the one asked for is a block of the zoom, its value as
+    OpenCV decodes the frame; the centre pixel is outlined, outside the frame is black."""
+    from vidtrack.view.zoom import ZOOM_FACTOR, ZOOM_HALF_PX
+
+    run = copy_run(tmp_path / "run")
+    c = client(run)
+    r = c.get(f"/zoom/front/7.png?u={at[0]}&v={at[1]}")
+    assert r.status_code == 200 and r.mimetype == "image/png"
+    img = cv2.imdecode(np.frombuffer(r.data, np.uint8), cv2.IMREAD_COLOR).astype(int)
+    side = 2 * ZOOM_HALF_PX + 1
+    assert img.shape == (side * ZOOM_FACTOR, side * ZOOM_FACTOR, 3)
+    truth = decoded_frame(run / "front.avi", 7)
+    mid = ZOOM_FACTOR // 2
+    for i in range(side):
+        for j in range(side):
+            v, u = centre[1] + i - ZOOM_HALF_PX, centre[0] + j - ZOOM_HALF_PX
+            cell = img[i * ZOOM_FACTOR + mid, j * ZOOM_FACTOR + mid]
+            inside = 0 <= v < truth.shape[0] and 0 <= u < truth.shape[1]
+            expected = truth[v, u] if inside else 0
+            assert np.abs(cell - expected).max() <= 1, (u, v)
+    edge = img[ZOOM_HALF_PX * ZOOM_FACTOR, ZOOM_HALF_PX * ZOOM_FACTOR]
+    assert edge[0] < 60 < min(edge[1], edge[2])     # the outline: yellow (B, G, R) on grey
+
+
+@pytest.mark.parametrize("query, status, message", [
+    ("u=5&v=x", 400, "zoom: u and v must be the frame pixel to magnify"),
+    ("v=5", 400, "zoom: u and v must be the frame pixel to magnify"),
+    ("u=nan&v=5", 400, "zoom: u and v must be the frame pixel to magnify"),
+    ("u=5000&v=5", 400, "is outside the frame; expected u in 0.."),
+    ("u=5&v=-3", 400, "is outside the frame"),
+])
+def test_zoom_bad_pixel_one_line(tmp_path, query, status, message):
+    c = client(copy_run(tmp_path / "run"))
+    r = c.get(f"/zoom/front/7.png?{query}")
+    assert r.status_code == status and message in r.json["error"]
+    assert "\n" not in r.json["error"]
+    assert c.get("/zoom/front/372.png?u=5&v=5").status_code == 404
+    assert c.get("/zoom/side/0.png?u=5&v=5").status_code == 404
 
 
 def test_fit_from_the_page_uses_the_point_placed_by_hand(tmp_path):

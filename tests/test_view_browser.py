@@ -2,7 +2,8 @@
 
 The real command serves the page on 127.0.0.1 (a child process); Selenium drives Debian's
 ``chromium`` through ``chromedriver``: it fits the run, clicks the frame to set the
-origin, steps frames, places a point by hand, excludes a frame, and types a bad fps.
+origin (the zoom following the pointer), steps frames, places a point by hand, excludes a
+frame, sets the target and removes it, and types a bad fps.
 Truth: tracks.csv written by the fit, the pixels the test clicked (worked out from the
 element's size and the display scale the page states), scene.toml and the manual points
 file read back by the scene loader and ``csv``. A screenshot of the page is kept
@@ -28,6 +29,8 @@ from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
 from test_view import copy_run, serve, stop  # noqa: E402
+
+from vidtrack.view.zoom import ZOOM_FACTOR, ZOOM_HALF_PX  # noqa: E402
 
 #: Debian's packages chromium and chromium-driver install these.
 CHROMIUM = "/usr/bin/chromium"
@@ -125,6 +128,18 @@ def test_set_up_and_correct_a_run_by_clicking(page, tmp_path):
     origin = load_scene(run).views["front"].origin_px
     assert origin == pytest.approx(clicked, abs=tol)
     assert origin == pytest.approx((150.0, 90.0), abs=2 * tol)
+    # the zoom follows the pointer: the footage's pixels around the pixel pointed at
+    def zoomed_at(d):
+        at = re.search(r"around ([-\d.]+), ([-\d.]+)", d.find_element(By.ID, "zoom-at").text)
+        return at is not None and [float(at[1]), float(at[2])] == pytest.approx(clicked,
+                                                                                 abs=tol)
+
+    wait.until(zoomed_at)
+    zoom = browser.find_element(By.ID, "zoom")
+    wait.until(lambda d: zoom.is_displayed() and d.execute_script(
+        "return arguments[0].complete && arguments[0].naturalWidth;", zoom))
+    assert browser.execute_script("return arguments[0].naturalWidth;", zoom) == (
+        (2 * ZOOM_HALF_PX + 1) * ZOOM_FACTOR)
     # two frames on, a point placed by hand
     browser.find_element(By.ID, "next").click()
     browser.find_element(By.ID, "next").click()
@@ -143,6 +158,15 @@ def test_set_up_and_correct_a_run_by_clicking(page, tmp_path):
     browser.find_element(By.ID, "exclude").click()
     wait.until(lambda d: "excluded: yes" in d.find_element(By.ID, "info").text)
     assert load_scene(run).views["front"].exclude_frames == ((3, 4),)
+    # the target clicked in this frame, then removed
+    browser.find_element(By.ID, "tool-target").click()
+    clicked, tol = click_frame(browser, (205.0, 55.0))
+    wait.until(lambda d: "target: frame 3 at" in d.find_element(By.ID, "info").text)
+    frame, at = load_scene(run).views["front"].target
+    assert frame == 3 and at == pytest.approx(clicked, abs=tol)
+    browser.find_element(By.ID, "remove-target").click()
+    wait.until(lambda d: "target: -" in d.find_element(By.ID, "info").text)
+    assert load_scene(run).views["front"].target is None
     # a bad fps: the loader's one line in the page, nothing written
     before = digest(run / "scene.toml")
     fps = browser.find_element(By.ID, "fps")

@@ -6,6 +6,9 @@ run again. The modules:
 
 - ``run_view``: :class:`RunView`, the run held open: scene, footage, tracks, fitted path,
   and a frame drawn as PNG;
+- ``view_data``: :class:`ViewData`, a view's corrections, tracks and fitted path, read
+  once per change of the run;
+- ``zoom``: :func:`zoom_image`, the footage's pixels around one pixel, magnified;
 - ``edits``: :func:`apply_edit`, one edit of ``scene.toml`` checked by the scene loader and
   written in place (comments kept), atomically;
 - ``fit_job``: :class:`FitJob`, ``vidtrack fit RUN`` in a child process;

@@ -4,10 +4,13 @@ Routes (all JSON but the page and the frames):
 
 - ``GET /``: the page (``static/view.html``);
 - ``GET /api/state``: the run read again (scene.toml, tracks, fit), its views (frame
-  count, size, display scale), the scene's remaining error, notes, the fit's state;
+  count, size, display scale, ``target``), the scene's remaining error, notes, the fit's
+  state;
 - ``GET /api/frame/<view>/<index>``: the frame's number, time, flags and reason,
   measured point and corrections (:meth:`RunView.frame_info`);
 - ``GET /frame/<view>/<index>.png``: the frame with the marks drawn (:meth:`RunView.render`);
+- ``GET /zoom/<view>/<index>.png?u=U&v=V``: the footage's pixels around pixel (U, V),
+  magnified (:meth:`RunView.zoom`);
 - ``POST /api/edit``: one edit of scene.toml (:func:`vidtrack.view.edits.apply_edit`);
 - ``POST /api/fit`` starts ``vidtrack fit RUN``, ``GET /api/fit`` says how it went.
 
@@ -60,6 +63,10 @@ def create_app(run_dir):
     def refused(exc, status=400):
         return jsonify({"error": str(exc)}), status
 
+    def image(png):
+        return app.response_class(png, mimetype="image/png",
+                                  headers={"Cache-Control": "no-store"})
+
     @app.before_request
     def this_machine_only():
         # served on 127.0.0.1 only; a page of another site that a browser sends here
@@ -96,8 +103,18 @@ def create_app(run_dir):
             png = run.render(view, index)
         except VidtrackError as exc:
             return refused(exc, 404)
-        return app.response_class(png, mimetype="image/png",
-                                  headers={"Cache-Control": "no-store"})
+        return image(png)
+
+    @app.get("/zoom/<view>/<int:index>.png")
+    def zoom_png(view, index):
+        at = (request.args.get("u", type=float), request.args.get("v", type=float))
+        try:
+            png = run.zoom(view, index, at)
+        except VidtrackError as exc:
+            return refused(exc, 404)
+        except ValueError as exc:
+            return refused(exc)
+        return image(png)
 
     @app.post("/api/edit")
     def edit():

@@ -284,7 +284,8 @@ def apply_edit(folder, request, *, n_frames):
         - ``ruler``: ``from_px``, ``to_px`` and ``length_m`` (replaces ``m_per_px`` or
           ``calibration``);
         - ``fps``: ``fps``, the capture rate;
-        - ``target``: ``frame`` and ``at_px``;
+        - ``target``: ``frame`` and ``at_px`` (``at_px`` None removes the target: the
+          rest of the file stays byte for byte);
         - ``point``: ``frame`` and ``at_px`` (None removes the frame's point): the
           view's ``manual_points`` file (``<view>_manual.csv`` unless scene.toml names
           one);
@@ -358,6 +359,10 @@ def apply_edit(folder, request, *, n_frames):
     elif what == "fps":
         _set(table, "fps", _number(request.get("fps"), label, f"{key}.fps",
                                    "the capture rate in frames/s (a number > 0)"))
+    elif what == "target" and request.get("at_px") is None:
+        if "target" not in table:
+            _bad(label, f"{key}.target", "is not set; expected a target to remove")
+        del table["target"]
     else:
         frame = _frame(request.get("frame"), label, f"{key} frame", n_frames)
         if what == "target":

@@ -20,6 +20,7 @@ import numpy as np
 from vidtrack.errors import SceneError, VidtrackError
 from vidtrack.scene.model import SCENE_FILE
 from vidtrack.view.edits import ORTHOGONAL_VIEWS, SET_UP, with_stand_ins
+from vidtrack.view.view_data import EMPTY, view_data
 
 __all__ = ["RunView", "DISPLAY_WIDTH_PX", "MANUAL_COLOUR", "TARGET_COLOUR"]
 
@@ -103,7 +104,7 @@ class RunView:
             raise VidtrackError(f"{folder}: has throws/; the page opens a run of one throw "
                                 "(expected a run folder without throws/)")
         self._lock = threading.RLock()
-        self._footage = {}
+        self._footage, self._data = {}, {}
         self.reload()
         if not self._footage:
             raise SceneError(f"{self.scene_path}: no view gives footage (views.<name>.source);"
@@ -147,6 +148,9 @@ class RunView:
             for name in self._footage:
                 self._views[name] = self._view_spec(name, views.get(name, {}))
             self._read_outputs()
+            self._data = {name: view_data(self.folder, self.scene_path, name, views.get(name),
+                                          self.tracks.get(name), self.paths.get(name))
+                          for name in self._footage}
 
     def _view_spec(self, name, raw):
         if self.scene is not None:
@@ -232,33 +236,20 @@ class RunView:
                     else str(self._footage[name].path),
                     "tracked": name in self.tracks,
                     "fps": self._footage[name].fps,
+                    "target": self._data[name].target,
                 }
             run_name = self.scene.run_name if self.scene is not None else self.folder.name
             return {"run": run_name, "folder": str(self.folder), "views": views,
                     "scene_error": self.scene_error, "notes": list(self.notes)}
 
     # ------------------------------------------------------------------ one frame
-    def _corrections(self, name):
-        raw = (self.raw.get("views") or {}).get(name) or {}
-        excluded = set()
-        for r in raw.get("exclude_frames") or ():
-            if isinstance(r, list) and len(r) == 2 and all(isinstance(x, int) for x in r):
-                excluded.update(range(r[0], r[1]))
-        manual = {}
-        text = raw.get("manual_points")
-        if isinstance(text, str):
-            from vidtrack.scene.corrections import manual_points_file, read_manual_points
-
-            path = manual_points_file(self.folder, text)
-            try:
-                points = read_manual_points(path, label=str(self.scene_path),
-                                            key=f"views.{name}.manual_points", text=text)
-                manual = {f: (u, v) for f, u, v in zip(points.frames, points.u_px,
-                                                       points.v_px)}
-            except SceneError:
-                manual = {}
-        target = raw.get("target") if isinstance(raw.get("target"), dict) else None
-        return excluded, manual, target
+    def _frame_source(self, name, index):
+        """The view's footage, once ``index`` is checked to be one of its frames."""
+        src = self._source(name)
+        if not 0 <= index < len(src):
+            raise VidtrackError(f"frame {index}: not a frame of view {name} (0 to "
+                                f"{len(src) - 1})")
+        return src
 
     def frame_info(self, name, index):
         """The frame's number, time, flags and reason, measured point and corrections.
@@ -271,27 +262,23 @@ class RunView:
         from vidtrack.report.overlay import flag_text
 
         with self._lock:
-            src = self._source(name)
-            if not 0 <= index < len(src):
-                raise VidtrackError(f"frame {index}: not a frame of view {name} (0 to "
-                                    f"{len(src) - 1})")
+            src = self._frame_source(name, index)
             frame = int(src.frame_numbers[index])
             info = {"view": name, "index": index, "frame": frame,
                     "t_s": float(src.times_s[index]), "tracked": False, "flags": None,
                     "flag_text": "not tracked", "reason": None, "u_px": None, "v_px": None}
-            data = self.tracks.get(name)
-            if data is not None:
-                rows = np.nonzero(data["frame"].to_numpy() == frame)[0]
-                if rows.size:
-                    row = data.iloc[int(rows[0])]
-                    flags = int(row["flags"])
-                    reason = row["reason"] if "reason" in data.columns else None
-                    info.update(tracked=True, flags=flags, flag_text=flag_text(flags),
-                                reason=reason if isinstance(reason, str) and reason else None,
-                                u_px=_num(row["u_px"]), v_px=_num(row["v_px"]))
-            excluded, manual, target = self._corrections(name)
-            info["excluded"] = frame in excluded
-            info["manual_px"] = list(manual[frame]) if frame in manual else None
+            data = self._data.get(name, EMPTY)
+            i = data.row(frame)
+            if i is not None:
+                row = data.table.iloc[i]
+                flags = int(row["flags"])
+                reason = row["reason"] if "reason" in data.table.columns else None
+                info.update(tracked=True, flags=flags, flag_text=flag_text(flags),
+                            reason=reason if isinstance(reason, str) and reason else None,
+                            u_px=_num(row["u_px"]), v_px=_num(row["v_px"]))
+            target = data.target
+            info["excluded"] = frame in data.excluded
+            info["manual_px"] = list(data.manual[frame]) if frame in data.manual else None
             info["target_px"] = (target.get("at_px") if target and target.get("frame") == frame
                                  else None)
             return info
@@ -315,26 +302,18 @@ class RunView:
                     marks = type(marks)(origin=marks.origin,
                                         axes=marks.axes if "axes" in own else (),
                                         ruler=marks.ruler if "scale" in own else None)
-            measured = trail = shift = None
-            data = self.tracks.get(name)
-            if data is not None:
-                from vidtrack.report.overlay import camera_shifts
-
-                frames = data["frame"].to_numpy()
-                uv = np.column_stack([data["u_px"].to_numpy(), data["v_px"].to_numpy()])
-                shifts = camera_shifts(data, len(frames))
-                uv = uv + shifts
-                rows = np.nonzero(frames == info["frame"])[0]
+            measured = trail = shift = fitted = None
+            data = self._data.get(name, EMPTY)
+            if data.frames is not None:
+                frames = data.frames
                 before = (frames < info["frame"]) & (frames >= info["frame"] - PAGE_TRAIL_FRAMES)
-                trail = uv[before]
-                if rows.size:
-                    measured, shift = uv[rows[0]], shifts[rows[0]]
-            path = self.paths.get(name)
-            polyline = fitted = None
-            if path is not None:
-                polyline = path.polyline()
-                fitted = path.at_frames(np.array([info["frame"]]),
-                                        np.array([info["t_s"]]))[0]
+                trail = data.uv[before]
+                i = data.row(info["frame"])
+                if i is not None:
+                    measured, shift = data.uv[i], data.shifts[i]
+            if data.path is not None:
+                fitted = data.path.at_frames(np.array([info["frame"]]),
+                                             np.array([info["t_s"]]))[0]
             status = info["flag_text"]
             if info["reason"]:
                 status += f" ({info['reason']})"
@@ -342,18 +321,43 @@ class RunView:
                 status += "  EXCLUDED"
             draw_frame(img, view=name, frame=info["frame"], time_s=info["t_s"],
                        flags=info["flags"], measured=measured, trail=trail, shift=shift,
-                       path=polyline, fitted=fitted, scene=marks, scale=scale, status=status)
+                       path=data.polyline, fitted=fitted, scene=marks, scale=scale, status=status)
             for at, shape in ((info["manual_px"], cv2.MARKER_SQUARE),
                               (info["target_px"], cv2.MARKER_DIAMOND)):
                 if at is not None:
                     c = (np.asarray(at, dtype=np.float64) + 0.5) * scale - 0.5
                     cv2.drawMarker(img, (int(round(c[0])), int(round(c[1]))), MANUAL_COLOUR,
                                    shape, MARKER_PX, 2, cv2.LINE_AA)
-            ok, png = cv2.imencode(".png", img)
-            if not ok:
-                raise VidtrackError(f"view {name}, frame {info['frame']}: cannot be encoded "
-                                    "as PNG")
-            return png.tobytes()
+            return _png(img, name, index)
+
+    def zoom(self, name, index, at_px):
+        """The footage's pixels around ``at_px`` in frame ``index`` of view ``name``,
+        magnified (:func:`vidtrack.view.zoom.zoom_image`), as PNG bytes.
+
+        Raises
+        ------
+        VidtrackError
+            An unknown view, or an index outside the footage.
+        ValueError
+            ``at_px`` is not a pixel of the frame (one line).
+        """
+        from vidtrack.report.overlay import to_bgr8
+        from vidtrack.view.zoom import zoom_centre, zoom_image
+
+        with self._lock:
+            src = self._frame_source(name, index)
+            centre = zoom_centre(at_px, src.shape[:2])
+            return _png(zoom_image(to_bgr8(src[index], src.bit_depth), centre), name, index)
+
+
+def _png(img, name, index):
+    """``img`` (BGR) as PNG bytes."""
+    import cv2
+
+    ok, png = cv2.imencode(".png", img)
+    if not ok:
+        raise VidtrackError(f"view {name}, frame {index}: cannot be encoded as PNG")
+    return png.tobytes()
 
 
 def _num(value):

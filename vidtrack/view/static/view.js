@@ -2,6 +2,8 @@
 "use strict";
 const $ = (id) => document.getElementById(id);
 let state = null, view = null, index = 0, tool = null, clicks = [];
+// the zoom: the frame pixel it is centred on, the last URL asked for, one request at a time
+let zoomAt = null, zoomUrl = null, zoomBusy = false;
 
 const HINTS = {
   origin: "click the origin O (the centre of the blade shaft)",
@@ -67,6 +69,8 @@ async function show(i) {
   const info = await api("/api/frame/" + encodeURIComponent(view) + "/" + index);
   await loaded;
   img.dataset.frame = String(info.frame);
+  if (!zoomAt && info.u_px !== null) zoomAt = [info.u_px, info.v_px];
+  zoom();
   $("exclude").textContent = info.excluded ? "include this frame" : "exclude this frame";
   $("info").textContent = [
     "frame " + info.frame + "   t = " + info.t_s.toFixed(5) + " s",
@@ -74,6 +78,8 @@ async function show(i) {
     "measured: " + (info.u_px === null ? "-" : info.u_px.toFixed(2) + ", " + info.v_px.toFixed(2)),
     "placed by hand: " + (info.manual_px ? info.manual_px.join(", ") : "-"),
     "excluded: " + (info.excluded ? "yes" : "no"),
+    "target: " + (v.target ? "frame " + v.target.frame + " at " + v.target.at_px.join(", ")
+                           : "-"),
   ].join("\n");
 }
 
@@ -98,6 +104,22 @@ function framePixel(ev) {
   const x = (ev.clientX - r.left) * img.naturalWidth / r.width;
   const y = (ev.clientY - r.top) * img.naturalHeight / r.height;
   return [+(((x + 0.5) / scale) - 0.5).toFixed(2), +(((y + 0.5) / scale) - 0.5).toFixed(2)];
+}
+
+// The zoom centred on px (or where it was), asked for once the previous one has come.
+function zoom(px) {
+  if (px) zoomAt = px;
+  if (!zoomAt || zoomBusy) return;
+  const url = "/zoom/" + encodeURIComponent(view) + "/" + index + ".png?u=" + zoomAt[0] +
+              "&v=" + zoomAt[1];
+  if (url === zoomUrl) return;
+  const z = $("zoom");
+  zoomBusy = true;
+  zoomUrl = url;
+  z.onload = () => { zoomBusy = false; z.hidden = false; zoom(); };
+  z.onerror = () => { zoomBusy = false; z.hidden = true; zoom(); };
+  z.src = url;
+  $("zoom-at").textContent = "zoom: around " + zoomAt.join(", ");
 }
 
 async function edit(body) {
@@ -140,11 +162,12 @@ async function pollFit() {
 
 function init() {
   $("frame").addEventListener("click", onFrameClick);
+  $("frame").addEventListener("mousemove", (ev) => zoom(framePixel(ev)));
   $("prev").onclick = () => show(index - 1);
   $("next").onclick = () => show(index + 1);
   $("index").onchange = () => show(Number($("index").value));
   $("slider").oninput = () => show(Number($("slider").value));
-  $("view").onchange = () => { view = $("view").value; show(0); };
+  $("view").onchange = () => { view = $("view").value; zoomAt = null; show(0); };
   for (const b of document.querySelectorAll("button.tool")) {
     b.onclick = () => setTool(b.dataset.tool);
   }
@@ -152,6 +175,7 @@ function init() {
                                      excluded: $("exclude").textContent.startsWith("exclude")});
   $("remove-point").onclick = () => edit({set: "point", frame: Number($("frame").dataset.frame),
                                           at_px: null});
+  $("remove-target").onclick = () => edit({set: "target", at_px: null});
   $("set-fps").onclick = () => edit({set: "fps", fps: Number($("fps").value)});
   $("fit").onclick = async () => {
     try { showFit(await api("/api/fit", {})); pollFit(); } catch (e) { say(e.message, "error"); }
