@@ -308,5 +308,6 @@ def quantize(image, bit_depth):
     Returns ``uint8`` for 8 bits, ``uint16`` otherwise.
     """
     top = (1 << int(bit_depth)) - 1
-    dn = np.rint(np.clip(image, 0.0, 1.0) * top)
-    return dn.astype(np.uint8 if bit_depth <= 8 else np.uint16)
+    dn = np.clip(np.asarray(image, dtype=np.float64), 0.0, 1.0)
+    dn *= top
+    return np.rint(dn, out=dn).astype(np.uint8 if bit_depth <= 8 else np.uint16)
