@@ -121,7 +121,7 @@ def test_sampled_pixels_count_the_same_grid_points_as_brute_force():
     """The sub-row counting (every pixel of the roi put through it, not only the rounded
     ends' ones) against all 256 points tested one by one: equal, but where a point lies
     within 1e-9 px of the boundary (the two computations may round it either way)."""
-    from vidtrack.synth import _raster
+    from vidtrack.synth import _capsules
 
     s = 16
     offs = (np.arange(s) + 0.5) / s - 0.5
@@ -131,7 +131,9 @@ def test_sampled_pixels_count_the_same_grid_points_as_brute_force():
         if roi.empty:
             continue
         rr, cc = np.nonzero(np.ones(roi.shape, dtype=bool))
-        got = _raster._sampled_coverage(cap, roi, rr, cc, s)
+        own = np.zeros(rr.size, dtype=np.int64)
+        got = _capsules._sampled_coverage(rr + roi.r0, cc + roi.c0, own,
+                                          _capsules._Segments.of([cap]).take(own), s, [roi])
         pu = (cc + roi.c0)[:, None, None] + offs[None, None, :]
         pv = (rr + roi.r0)[:, None, None] + offs[None, :, None]
         inside, margin = _brute_force_inside(cap, pu, pv)

@@ -253,15 +253,14 @@ class _ViewRenderer:
             base = self.static[roi.slices]
             acc = np.zeros(roi.shape)
             cov = {}
-            for j, layers in enumerate(per_sample):
-                sel = [ly for ly in layers if ly[0] in keys]
-                base_j = base
-                if "shadow" in keys:
-                    base_j = base * (1.0 - float(spec.shadow[1])
-                                     * self._shadow(shadows[j], roi))
-                painted, covers = _raster.composite_box(base_j, sel, roi,
-                                                        supersample=spec.supersample,
-                                                        cache=self._cache)
+            bases = [base] * kk
+            if "shadow" in keys:
+                bases = [base * (1.0 - float(spec.shadow[1]) * shadow)
+                         for shadow in self._shadows(shadows, roi)]
+            painted_samples = _raster.composite_boxes(
+                bases, [[ly for ly in layers if ly[0] in keys] for layers in per_sample], roi,
+                supersample=spec.supersample, cache=self._cache)
+            for layers, (painted, covers) in zip(per_sample, painted_samples):
                 acc += painted
                 if getattr(track, "post_moves", False) and "straw" in covers:
                     # (the straw behind the post where it is at this sample)
@@ -293,16 +292,17 @@ class _ViewRenderer:
                     facts["person_overlap"] |= bool(np.any((straw > 0) & (person > 0)))
         return image, facts
 
-    def _shadow(self, capsule, roi):
-        """The shadow's blurred coverage over ``roi`` (0 .. 1)."""
+    def _shadows(self, capsules, roi):
+        """The shadows' blurred coverages over ``roi`` (0 .. 1), one a capsule."""
         import cv2
 
-        cov = _raster.capsule_coverage(capsule, roi, supersample=self.spec.supersample)
+        covs = _raster.capsule_coverages(capsules, [roi] * len(capsules),
+                                         supersample=self.spec.supersample)
         sigma = float(self.spec.shadow[2])
         if sigma > 0:
-            cov = cv2.GaussianBlur(cov, (0, 0), sigmaX=sigma, sigmaY=sigma,
-                                   borderType=cv2.BORDER_CONSTANT)
-        return cov
+            covs = [cv2.GaussianBlur(cov, (0, 0), sigmaX=sigma, sigmaY=sigma,
+                                     borderType=cv2.BORDER_CONSTANT) for cov in covs]
+        return covs
 
     def _shaken(self, i, image):
         """The noiseless frame i as the shaking camera shows it (whole image moved)."""
