@@ -14,8 +14,11 @@ before those through the same detections are made one), those frames are each ch
 them) and are flagged MERGED.
 Chains through the same detections are one; two chains that one flight explains across
 a gap (the object hidden behind something for longer than ``max_gap``) are joined when
-each one's path, carried over the gap, meets the other's and their joint score exceeds
-both of theirs.
+each one's path, carried over the gap, meets the other's, their joint score exceeds
+both of theirs, and they are not of opposite polarities
+(:func:`vidtrack.track.detect.polarity`: a light rod going behind a post, a dark one
+coming out, are two objects). Another chain that flies before or after the
+object, with half its score or more, is named in a note (:func:`others_note`).
 
 Each chain's **flight score** is the length of the path of its flight (the longest span
 one cubic in time explains, :func:`flight_segment`: free flight with a smoothly changing
@@ -39,10 +42,11 @@ at that pixel in that frame is the object, whatever else moves.
 import numpy as np
 
 from vidtrack.errors import TrackError
+from vidtrack.track.detect import polarity
 from vidtrack.track.measure import moment_axes
 from vidtrack.track.path import extrapolate, local_quadratic, runs
 
-__all__ = ["Chain", "grow", "choose", "flight_segment", "mark_merged"]
+__all__ = ["Chain", "grow", "choose", "flight_segment", "mark_merged", "others_note"]
 
 #: Two chains are one when they share more than this share of the shorter's detections;
 #: two chains are seen at once when both have detections in this share of the shorter's
@@ -85,6 +89,7 @@ class Chain:
         self.shadow_seen = np.zeros(n, bool)
         self.major = np.full(n, np.nan)
         self.minor = np.full(n, np.nan)
+        self.polarity = np.zeros(n, np.int8)
         for i in np.flatnonzero(pick >= 0):
             self._take(i, detections[i][pick[i]])
         self.frames = np.flatnonzero(pick >= 0)
@@ -100,6 +105,7 @@ class Chain:
         self.level[i] = d["level"]
         self.shadow[i] = d["shadow"]
         self.shadow_seen[i] = d["shadow"] and d["textured"]
+        self.polarity[i] = polarity(d)
         _angle, along, across = moment_axes(float(d["muu"]), float(d["mvv"]),
                                             float(d["muv"]))
         self.major[i], self.minor[i] = np.sqrt(along), np.sqrt(across)
@@ -362,16 +368,27 @@ def mark_merged(chains, settings):
     return any_merged
 
 
+def _one_polarity(chain, frames):
+    """The polarity (+1, -1) of a chain's ``frames`` where most of them are of it, else
+    0 (:func:`vidtrack.track.detect.polarity`)."""
+    p = chain.polarity[frames]
+    for sign in (1, -1):
+        if np.count_nonzero(p == sign) > MAJORITY * p.size:
+            return sign
+    return 0
+
+
 def _joined(a, b, detections, settings):
     """The chain of ``a``'s flight then ``b``'s, when ``a``'s explained frames begin and
-    end before ``b``'s (a few frames in common are split between them) and their paths,
-    each carried to the middle of the gap between them, meet there; else None."""
+    end before ``b``'s (a few frames in common are split between them), most of each
+    side's are not of opposite polarities, and their paths, each carried to the middle
+    of the gap between them, meet there; else None."""
     ea, eb = np.flatnonzero(a.explained), np.flatnonzero(b.explained)
     if ea.size < 3 or eb.size < 3 or ea[0] >= eb[0] or ea[-1] >= eb[-1]:
         return None
     split = int(ea[-1]) if ea[-1] < eb[0] else (int(ea[-1]) + int(eb[0])) // 2
     ea, eb = ea[ea <= split], eb[eb > split]
-    if ea.size < 3 or eb.size < 3:
+    if ea.size < 3 or eb.size < 3 or _one_polarity(a, ea) * _one_polarity(b, eb) < 0:
         return None
     # each side's path from its frames a little way from the gap (those beside it may be
     # the object partly hidden), carried to the gap's middle: they must meet there
@@ -554,3 +571,24 @@ def choose(detections, tracklets, settings, *, target=None, frame_numbers=None,
         raise TrackError(f"two things fly alike and either may be {what}: add to the view's "
                          f"table in scene.toml " + " or ".join(lines))
     return best, chains[1:]
+
+
+def others_note(best, others, frame_numbers, what="the object"):
+    """A note naming the other things that fly, not at the same time as the object
+    (before or after it) with at least :data:`MAJORITY` of its flight score: a second
+    object thrown, or one that came out where the object went behind something. Each
+    with the ``target`` line that follows it instead; None where there is none."""
+    lines = []
+    for other in others:
+        at_once = (np.count_nonzero((other.pick >= 0) & (best.pick >= 0))
+                   >= MAJORITY * min(other.frames.size, best.frames.size))
+        if at_once or other.score < MAJORITY * best.score:
+            continue
+        fi, (u, v) = other.middle()
+        lines.append(f"frames {int(frame_numbers[other.frames[0]])}.."
+                     f"{int(frame_numbers[other.frames[-1]])} (to follow it instead: target "
+                     f"= {{ frame = {int(frame_numbers[fi])}, at_px = [{u:.0f}, {v:.0f}] }})")
+    if not lines:
+        return None
+    return (f"another object flies before or after {what}, not taken: "
+            + "; ".join(lines))

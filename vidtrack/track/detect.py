@@ -45,7 +45,8 @@ the image is kept, so memory does not grow with the footage's length.
 import cv2
 import numpy as np
 
-__all__ = ["Detector", "DETECTION_DTYPE", "MAX_DETECTIONS", "pixel_weights", "nonzero_2d"]
+__all__ = ["Detector", "DETECTION_DTYPE", "MAX_DETECTIONS", "pixel_weights", "nonzero_2d",
+           "polarity"]
 
 #: At most this many detections are kept per frame: the most significant (by their
 #: signal-to-noise ratio; a small object of strong contrast before a crowd whose
@@ -344,6 +345,14 @@ def _beside_its_shadow(d, gl, dim, li, m, at, shape, enclosed):
     rl = lab[ring] - 1
     share = np.bincount(rl, darkimg[ring], m) / np.maximum(np.bincount(rl, minlength=m), 1)
     return maybe & (share < enclosed)
+
+
+def polarity(dets):
+    """Each detection's polarity (int8): +1 brighter than the background, -1 darker, 0
+    of two polarities (a highlight on a body, an object of several tones). Two chains
+    of opposite polarities are not joined across a gap
+    (:mod:`vidtrack.track.choose`)."""
+    return np.where(dets["mixed"], 0, np.where(dets["contrast"] >= 0, 1, -1)).astype(np.int8)
 
 
 def pixel_weights(d, b, sigma, level, obj, mixed=False, grow=None):

@@ -29,7 +29,7 @@ import numpy as np
 from vidtrack.errors import TrackError
 from vidtrack.track._flags import BLADE, LOST
 from vidtrack.track.background import estimate_background, gather_samples, without_object
-from vidtrack.track.choose import choose
+from vidtrack.track.choose import choose, others_note
 from vidtrack.track.detect import Detector
 from vidtrack.track.flag import REASON_COLUMN, bridge_gaps, judge, reason_codes
 from vidtrack.track.joined import follow_back
@@ -465,6 +465,9 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
         notes.append("shadow-like: the object darkens the wall as a shadow would (a "
                      "factor no darker than shadow_ratio_min, no texture under it to "
                      "tell); taken for the object since nothing else is in flight")
+    apart = others_note(chain, others, fnums[:n], what)
+    if apart:
+        notes.append(apart)
     if bridged:
         notes.append(f"{bridged} frames without a detection inside the object's chain: "
                      f"placed on the path through the clean frames either side "
