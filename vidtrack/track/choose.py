@@ -481,6 +481,13 @@ def _target_seed(detections, target, frame_numbers, what):
     return [(fi, j)]
 
 
+def _seen_at_once(a, b):
+    """Whether two chains are seen at the same time: both have detections in at least
+    :data:`MAJORITY` of the shorter's frames."""
+    return (np.count_nonzero((a.pick >= 0) & (b.pick >= 0))
+            >= MAJORITY * min(a.frames.size, b.frames.size))
+
+
 def choose(detections, tracklets, settings, *, target=None, frame_numbers=None,
            what="the object"):
     """The object's chain.
@@ -557,9 +564,7 @@ def choose(detections, tracklets, settings, *, target=None, frame_numbers=None,
         both = (other.pick >= 0) & (best.pick >= 0)
         shared = np.any(both & (np.abs(other.u - best.u) < SAME_PX)
                         & (np.abs(other.v - best.v) < SAME_PX))
-        at_once = (np.count_nonzero(both)
-                   >= MAJORITY * min(other.frames.size, best.frames.size))
-        if shared or not at_once or other.score * r < best.score:
+        if shared or not _seen_at_once(best, other) or other.score * r < best.score:
             continue
         if other.shadow[other.frames].mean() > MAJORITY or other.signal * r < best.signal:
             continue
@@ -580,9 +585,7 @@ def others_note(best, others, frame_numbers, what="the object"):
     with the ``target`` line that follows it instead; None where there is none."""
     lines = []
     for other in others:
-        at_once = (np.count_nonzero((other.pick >= 0) & (best.pick >= 0))
-                   >= MAJORITY * min(other.frames.size, best.frames.size))
-        if at_once or other.score < MAJORITY * best.score:
+        if _seen_at_once(best, other) or other.score < MAJORITY * best.score:
             continue
         fi, (u, v) = other.middle()
         lines.append(f"frames {int(frame_numbers[other.frames[0]])}.."

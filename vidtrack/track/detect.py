@@ -319,15 +319,15 @@ def _percentile_by_label(values, labels, n, q):
     return out
 
 
-def _beside_its_shadow(d, gl, dim, li, m, at, shape, enclosed):
+def _beside_its_shadow(d, gl, dim, li, m, at, labels, enclosed):
     """Which detections are a bright object beside its shadow: their pixels darker than
     the background beyond ``gl`` are all dimmed by a shadow's factor (``dim``), and
     their brighter pixels beyond ``gl`` are not a highlight on that darker part (less
     than ``enclosed`` of the ring round them is the darker part: a highlight lies
     inside its body).
 
-    ``at`` are the pixels' (row, column) in a crop of ``shape``; ``li`` their
-    detection (0..m-1)."""
+    ``at`` are the pixels' (row, column) in the crop whose image of detections
+    ``labels`` (1..m, 0 for none) they come from; ``li`` their detection (0..m-1)."""
     bright, dark = d > gl, d < -gl
     n_dark = np.bincount(li, dark, m)
     maybe = (np.bincount(li, bright, m) > 0) & (n_dark > 0) & (
@@ -335,14 +335,12 @@ def _beside_its_shadow(d, gl, dim, li, m, at, shape, enclosed):
     if not maybe.any():
         return maybe
     rows, cols = at
-    img = np.zeros(shape, np.uint8)
+    img = np.zeros(labels.shape, np.uint8)
     img[rows[bright], cols[bright]] = 1
-    lab = np.zeros(shape, np.int32)
-    lab[rows, cols] = li + 1
-    darkimg = np.zeros(shape, bool)
+    darkimg = np.zeros(labels.shape, bool)
     darkimg[rows[dark], cols[dark]] = True
-    ring = (cv2.dilate(img, _KERNEL3) > 0) & (img == 0) & (lab > 0)
-    rl = lab[ring] - 1
+    ring = (cv2.dilate(img, _KERNEL3) > 0) & (img == 0) & (labels > 0)
+    rl = labels[ring].astype(np.int64) - 1
     share = np.bincount(rl, darkimg[ring], m) / np.maximum(np.bincount(rl, minlength=m), 1)
     return maybe & (share < enclosed)
 
@@ -531,7 +529,7 @@ class Detector:
         # (a mixed object may be a bright object beside its shadow: measured as such where
         # its chain shows it so, at the level of its bright pixels)
         beside = mixed & _beside_its_shadow(d, gl, ratio_all >= s.shadow_ratio_min, li, m,
-                                            (ys - r0, xs - c0), own.shape,
+                                            (ys - r0, xs - c0), grown,
                                             s.highlight_enclosed)
         lit_level = (_percentile_by_label(fv, li, m, 0.9) if beside.any()
                      else np.full(m, np.nan))

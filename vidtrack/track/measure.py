@@ -485,7 +485,7 @@ def _beyond_rim(d, bg, det, settings):
     if not core.any():
         return None
     far = cv2.distanceTransform(1 - core, cv2.DIST_L2, 3) > RIM_PX
-    return far & (ratio >= r) & (ratio < 1.0) & (d < 0)
+    return far & (ratio >= r) & (d < 0)
 
 
 def _cover(d, bg, sg, det):
