@@ -457,21 +457,9 @@ def _noise(sg, det):
     return float(np.median(sg)) / level
 
 
-#: A dark object of one level darker than a shadow could make any of the wall round it
-#: (``shadow_ratio_min``): its pixels dimmed no more than a shadow dims them are its
-#: blurred rim where they lie within this distance (px) of those it dims more, and
-#: farther, a lighter shadow of its polarity touching it (no weight, no coverage data).
-#: Measured on the synthetic dark ball whose shadow touches it (tests/test_tracker_scenes
-#: .py): 1 px, 0.29 px median from its centre (0.41 at most); 1.5 px, 0.40 (0.55); 2 px,
-#: 0.59 (0.74); without, 3.0 (3.9). The scoreboard's dark straws: 0.0248 -> 0.0259 px RMS
-#: (front), 0.0245 -> 0.0246 (top); no real clip's object, and no camouflaged ball of
-#: tests/test_tracker_camouflage.py, is that dark.
-RIM_PX = 1.0
-
-
 def _beyond_rim(d, bg, det, settings):
     """The crop's pixels (bool) dimmed by no more than a shadow's factor farther than
-    :data:`RIM_PX` from those the object dims more, for a dark object of one level
+    ``shadow_rim_px`` from those the object dims more, for a dark object of one level
     darker than a shadow could make any pixel of the wall round it (below
     ``shadow_ratio_min`` of the crop's darkest background); else None."""
     obj = float(det["obj_level"])
@@ -484,7 +472,7 @@ def _beyond_rim(d, bg, det, settings):
     core = (ratio < r).astype(np.uint8)
     if not core.any():
         return None
-    far = cv2.distanceTransform(1 - core, cv2.DIST_L2, 3) > RIM_PX
+    far = cv2.distanceTransform(1 - core, cv2.DIST_L2, 3) > settings.shadow_rim_px
     return far & (ratio >= r) & (d < 0)
 
 
