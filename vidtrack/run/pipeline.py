@@ -399,6 +399,9 @@ def fit_throw_folder(scene, folder, out_dir, options, workers=None, *, plan=None
     out_dir = Path(out_dir)
     if plan is None:                 # a library caller: this throw's checks, here
         plan = RunPlan(scene=scene, out=out_dir, throws=[])
+        if Path(folder) != scene.folder:
+            with about(plan.label(folder)):
+                scene = plan.scene = scene.for_throw(folder)     # its own throw.toml
         with about(plan.label(folder)):
             found, notes = _check_folder_sources(scene, folder,
                                                  lambda v: plan.label(folder, v))
@@ -692,8 +695,8 @@ def fit_run(run_dir, options=FitOptions(), *, plan=None, workers=None):
     own = workers is None
     workers = {} if own else workers      # one worker process serves all the throws
     try:
-        records = [fit_throw_folder(scene, d, out / d.name, options, workers, plan=plan)
-                   for d in plan.throws]
+        records = [fit_throw_folder(plan.scene_of(d), d, out / d.name, options, workers,
+                                    plan=plan) for d in plan.throws]
     finally:
         if own:
             _stop_workers(workers)
