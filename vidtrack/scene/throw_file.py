@@ -24,7 +24,7 @@ from vidtrack.scene._check import _Checker, _read_toml, _show, _type_name
 from vidtrack.scene.corrections import parse_exclude, parse_manual_points, parse_target
 from vidtrack.scene.model import SCENE_FILE, SCHEMA
 
-__all__ = ["THROW_FILE", "THROW_KEYS", "throw_scene"]
+__all__ = ["THROW_FILE", "THROW_KEYS", "throw_scene", "apply_throw"]
 
 #: A throw folder's own file of corrections.
 THROW_FILE = "throw.toml"
@@ -63,14 +63,19 @@ def throw_scene(scene, folder):
         A file that is not TOML, a view the scene does not have, a key a throw may not
         set, a bad value; one line naming the throw's file, the key and what was expected.
     """
-    from vidtrack.scene.read import scene_digest
-
     folder = Path(folder)
     path = folder / THROW_FILE
     if not path.exists():
         return scene
-    data = _read_toml(path)
-    ck = _Checker(str(path))
+    return apply_throw(scene, _read_toml(path), folder, label=str(path))
+
+
+def apply_throw(scene, data, folder, *, label):
+    """:func:`throw_scene` of a throw's file already parsed (``data``, as ``tomllib``
+    gives it; ``label`` names it in messages); manual points resolve in ``folder``."""
+    from vidtrack.scene.read import scene_digest
+
+    ck = _Checker(label)
     ck.keys(data, ("schema", "views"), "")
     if "schema" in data and (isinstance(data["schema"], bool) or data["schema"] != SCHEMA):
         ck.fail("schema", f"must be {SCHEMA} (as scene.toml), got {_show(data['schema'])}")
