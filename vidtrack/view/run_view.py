@@ -6,9 +6,10 @@ at a time), the tracks and the fitted path when ``vidtrack fit`` has written the
 the corrections of ``scene.toml``. In a run with ``throws/`` it shows one throw at a time
 (:meth:`RunView.select_throw`): that throw's footage, tracks and fitted path, and its
 corrections (scene.toml's with the throw's ``throw.toml`` over them).
-:meth:`RunView.render` draws a frame with the overlay's own drawing (:func:`vidtrack.report.overlay.draw_frame`: the scene's origin, axes and
-ruler, the trail, the measured point in its flag colour, the fitted path, the banner with
-the flags and their reason), plus the corrections: a point placed by hand (a square in
+:meth:`RunView.render` draws a frame with the overlay's own drawing
+(:func:`vidtrack.report.overlay.draw_frame`: the scene's origin, axes and ruler, the
+trail, the measured point in its flag colour, the fitted path, the banner with the flags
+and their reason), plus the corrections: a point placed by hand (a square in
 :data:`MANUAL_COLOUR`), the ``target`` (a diamond) and ``excluded`` in the banner.
 """
 
