@@ -29,6 +29,7 @@ from vidtrack.scene import (
     load_scene,
     parse_scene,
     scene_to_toml,
+    throw_scene,
     write_scene,
 )
 
@@ -622,8 +623,8 @@ def test_a_throws_own_corrections_replace_the_runs_for_it_alone(tmp_path):
                                     'manual_points = "m.csv"\n')
     (two / "m.csv").write_text("frame,u_px,v_px\n70,1.5,2.5\n")
     s = load_scene(run)
-    assert s.for_throw(one) is s                        # no throw.toml: the run's scene
-    t = s.for_throw(two)
+    assert throw_scene(s, one) is s                        # no throw.toml: the run's scene
+    t = throw_scene(s, two)
     front = t.views["front"]
     assert front.exclude_frames == ((40, 52), (60, 61))
     assert front.target == (3, (10.0, 20.0))             # not given: the run's
@@ -655,7 +656,7 @@ def test_a_throws_bad_file_one_line(tmp_path, text, message):
     (run / "throws" / "01").mkdir(parents=True)
     (run / "throws" / "01" / "throw.toml").write_text(text)
     with pytest.raises(SceneError) as err:
-        load_scene(run).for_throw(run / "throws" / "01")
+        throw_scene(load_scene(run), run / "throws" / "01")
     assert str(err.value).startswith(f"{run / 'throws' / '01' / 'throw.toml'}: ")
     assert message in str(err.value) and "\n" not in str(err.value)
 

@@ -381,7 +381,7 @@ def test_a_run_of_throws_corrections_go_to_the_throw_shown(tmp_path):
     """A run with throws/: the page shows one throw at a time; a target, a point and an
     exclusion go to that throw's throw.toml and manual points file, the origin to the
     run's scene.toml; fitted from the page, the point is in that throw's tracks alone."""
-    from vidtrack.scene import load_scene
+    from vidtrack.scene import load_scene, throw_scene
 
     run = copy_throws_run(tmp_path / "run")
     shared = (run / "scene.toml").read_text()
@@ -399,12 +399,12 @@ def test_a_run_of_throws_corrections_go_to_the_throw_shown(tmp_path):
     assert edit(c, set="target", frame=30, at_px=[150.0, 60.0]).status_code == 200
     assert (run / "scene.toml").read_text() == shared
     scene = load_scene(run)
-    two = scene.for_throw(run / "throws" / "02").views["front"]
+    two = throw_scene(scene, run / "throws" / "02").views["front"]
     assert two.exclude_frames == ((20, 21),) and two.target == (30, (150.0, 60.0))
     with open(run / "throws" / "02" / "front_manual.csv", newline="") as f:
         assert [(r["frame"], r["u_px"], r["v_px"]) for r in csv.DictReader(f)] == [
             ("100", "205.50", "50.25")]
-    assert scene.for_throw(run / "throws" / "01") is scene       # throw 01: nothing of its own
+    assert throw_scene(scene, run / "throws" / "01") is scene    # 01: nothing of its own
     r = edit(c, set="point", frame=20, at_px=[1.0, 2.0])          # refused: one line, no write
     assert r.status_code == 400 and "\n" not in r.json["error"]
     assert r.json["error"].startswith(f"{(run / 'throws' / '02' / 'throw.toml').resolve()}: ")

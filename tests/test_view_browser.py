@@ -221,10 +221,10 @@ def test_a_throw_picked_and_corrected_by_clicking_the_zoom(page, tmp_path):
     wait.until(lambda d: d.find_element(By.ID, "info").text.startswith("frame 1 "))
     browser.find_element(By.ID, "exclude").click()
     wait.until(lambda d: "excluded: yes" in d.find_element(By.ID, "info").text)
-    from vidtrack.scene import load_scene
+    from vidtrack.scene import load_scene, throw_scene
 
     scene = load_scene(run)
-    assert scene.for_throw(run / "throws" / "02").views["front"].exclude_frames == ((1, 2),)
+    assert throw_scene(scene, run / "throws" / "02").views["front"].exclude_frames == ((1, 2),)
     assert not (run / "throws" / "01" / "throw.toml").exists()
     assert digest(run / "scene.toml") == shared
     assert browser.save_screenshot(str(tmp_path / "view-throws.png"))

@@ -399,10 +399,8 @@ def fit_throw_folder(scene, folder, out_dir, options, workers=None, *, plan=None
     out_dir = Path(out_dir)
     if plan is None:                 # a library caller: this throw's checks, here
         plan = RunPlan(scene=scene, out=out_dir, throws=[])
-        if Path(folder) != scene.folder:
-            with about(plan.label(folder)):
-                scene = plan.scene = scene.for_throw(folder)     # its own throw.toml
         with about(plan.label(folder)):
+            scene = plan.scene_of(folder)                # a throw's own throw.toml
             found, notes = _check_folder_sources(scene, folder,
                                                  lambda v: plan.label(folder, v))
             plan.findings[folder], plan.notes[folder] = found, notes

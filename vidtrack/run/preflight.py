@@ -184,7 +184,9 @@ class RunPlan:
         if Path(folder) == self.scene.folder:
             return self.scene
         if folder not in self.scenes:
-            self.scenes[folder] = self.scene.for_throw(folder)
+            from vidtrack.scene.throw_file import throw_scene
+
+            self.scenes[folder] = throw_scene(self.scene, folder)
         return self.scenes[folder]
 
     def label(self, folder=None, view=None):

@@ -432,13 +432,6 @@ class Scene:
         """Replicate throws of this run; see :func:`find_throw_dirs`."""
         return find_throw_dirs(self.folder)
 
-    def for_throw(self, folder):
-        """The scene of the throw in ``folder`` (its ``throw.toml`` applied); see
-        :func:`vidtrack.scene.throw_file.throw_scene`."""
-        from vidtrack.scene.throw_file import throw_scene
-
-        return throw_scene(self, folder)
-
     def to_dict(self):
         """The scene as a schema-1 dict with defaults filled in.
 

@@ -165,6 +165,7 @@ class RunView:
         """Read scene.toml (and the throw's throw.toml), the tracks and the fit again
         (after an edit or a fit)."""
         from vidtrack.scene.read import parse_scene
+        from vidtrack.scene.throw_file import throw_scene
 
         with self._lock:
             try:
@@ -181,7 +182,7 @@ class RunView:
             own, error = self._throw_views()
             if self.scene is not None and self.throw:
                 try:
-                    self.scene = self.scene.for_throw(self.throw_dir)
+                    self.scene = throw_scene(self.scene, self.throw_dir)
                 except SceneError as exc:
                     error = str(exc)
             self.scene_error = self.scene_error or error
