@@ -685,6 +685,52 @@ def test_a_failed_throw_leaves_no_mean_and_names_run_throw_and_view(vidtrack_cli
     assert (run / "vidtrack" / "01" / "fit.json").is_file()          # a finished throw
 
 
+def test_a_throws_own_exclusion_changes_that_throw_only(vidtrack_cli, tmp_path,
+                                                       replicate_run):
+    """throws/02/throw.toml excludes front frames of throw 02 alone: against the throws
+    fitted without it (the module's fit), throw 02 loses exactly the usable front frames
+    of the range from y (only the front view sees y), throw 01 fits as before, and the
+    run's k is the mean of the two. A bad value there: one line naming the file and the
+    key, exit 2, nothing written."""
+    import pandas as pd
+
+    base_run = replicate_run[0]
+    base = {d: json.loads((base_run / "vidtrack" / d / "fit.json").read_text())
+            for d in ("01", "02")}
+    tracks = pd.read_csv(base_run / "vidtrack" / "02" / "tracks.csv")
+    front = tracks[tracks["view"] == "front"]
+    a, b = 100, 130
+    usable = int(((front["frame"] >= a) & (front["frame"] < b) & (front["flags"] == 0)).sum())
+    assert usable >= 20
+    run = shutil.copytree(base_run, tmp_path / "run")
+    own = run / "throws" / "02" / "throw.toml"
+    own.write_text(f"[views.front]\nexclude_frames = [[{a}, {b}]]   # the straw behind "
+                   "the hub\n")
+    before = digest_tree(run)
+    res = fit(vidtrack_cli, run, "--json")
+    assert res.returncode == 0, res.stderr
+    mean = json.loads(res.stdout)
+    after = {d: json.loads((run / "vidtrack" / d / "fit.json").read_text())
+             for d in ("01", "02")}
+    assert after["02"]["points"]["y"] == base["02"]["points"]["y"] - usable
+    assert after["02"]["views"]["front"]["flags"]["excluded"] == b - a
+    assert after["01"]["points"] == base["01"]["points"]
+    assert after["01"]["views"]["front"]["flags"]["excluded"] == 0
+    for k in ("k1", "k2", "k3", "k4"):
+        assert after["01"]["coefficients"][k]["value"] == base["01"]["coefficients"][k]["value"]
+        assert mean["coefficients"][k]["value"] == pytest.approx(
+            np.mean([after[d]["coefficients"][k]["value"] for d in ("01", "02")]))
+    assert digest_tree(run) == before                             # inputs untouched
+    own.write_text("[views.front]\nexclude_frames = [[130, 100]]\n")
+    written = {p: p.read_bytes() for p in (run / "vidtrack").rglob("*") if p.is_file()}
+    res = fit(vidtrack_cli, run)
+    assert res.returncode == 2
+    line = one_line(res)
+    assert "throw 02" in line
+    assert f"{own}: views.front.exclude_frames[0] must be a non-empty range" in line
+    assert {p: p.read_bytes() for p in (run / "vidtrack").rglob("*") if p.is_file()} == written
+
+
 # ---------------------------------------------------------------- found early (items 6, 7, 10, 12)
 
 def test_a_fifo_as_footage_is_refused_without_reading_it(vidtrack_cli, tmp_path):

@@ -29,6 +29,7 @@ from vidtrack.scene import (
     load_scene,
     parse_scene,
     scene_to_toml,
+    throw_scene,
     write_scene,
 )
 
@@ -606,6 +607,58 @@ def test_throw_dirs_problems(tmp_path):
     (tmp_path / "b" / "throws").write_text("")
     with pytest.raises(SceneError, match="got a file"):
         find_throw_dirs(tmp_path / "b")
+
+
+def test_a_throws_own_corrections_replace_the_runs_for_it_alone(tmp_path):
+    run = tmp_path / "run"
+    data = base()
+    data["views"]["front"]["exclude_frames"] = [[5, 8]]
+    data["views"]["front"]["target"] = {"frame": 3, "at_px": [10.0, 20.0]}
+    write_raw(run, data)
+    one, two = run / "throws" / "01", run / "throws" / "02"
+    for d in (one, two):
+        d.mkdir(parents=True)
+    (two / "throw.toml").write_text('[views.front]  # this throw only\n'
+                                    'exclude_frames = [[40, 52], [60, 61]]\n'
+                                    'manual_points = "m.csv"\n')
+    (two / "m.csv").write_text("frame,u_px,v_px\n70,1.5,2.5\n")
+    s = load_scene(run)
+    assert throw_scene(s, one) is s                        # no throw.toml: the run's scene
+    t = throw_scene(s, two)
+    front = t.views["front"]
+    assert front.exclude_frames == ((40, 52), (60, 61))
+    assert front.target == (3, (10.0, 20.0))             # not given: the run's
+    assert front.manual_points == two / "m.csv" and front.manual_points_text == "m.csv"
+    assert t.views["top"] == s.views["top"] and front.fps == s.views["front"].fps
+    assert s.views["front"].exclude_frames == ((5, 8),)  # the run's scene unchanged
+    assert t.hash != s.hash
+    # the same content written into scene.toml gives the same scene and hash
+    data["views"]["front"].update(exclude_frames=[[40, 52], [60, 61]], manual_points="m.csv")
+    write_raw(tmp_path / "same", data)
+    (tmp_path / "same" / "m.csv").write_text("frame,u_px,v_px\n70,1.5,2.5\n")
+    assert load_scene(tmp_path / "same").hash == t.hash
+
+
+@pytest.mark.parametrize("text, message", [
+    ("[views.front]\nfps = 100\n", "views.front.fps is not a key a throw may set"),
+    ("[views.side]\nexclude_frames = []\n", "views.side is not a view of"),
+    ("[views.front]\nexclude_frames = [[9, 3]]\n",
+     "views.front.exclude_frames[0] must be a non-empty range"),
+    ("[views.front]\ntarget = 5\n", "views.front.target must be a table"),
+    ("[views.front]\nmanual_points = \"none.csv\"\n",
+     "views.front.manual_points names 'none.csv', but there is no such file"),
+    ("schema = 2\n", "schema must be 1"),
+    ("[views.front\n", "not valid TOML"),
+])
+def test_a_throws_bad_file_one_line(tmp_path, text, message):
+    run = tmp_path / "run"
+    write_raw(run, base())
+    (run / "throws" / "01").mkdir(parents=True)
+    (run / "throws" / "01" / "throw.toml").write_text(text)
+    with pytest.raises(SceneError) as err:
+        throw_scene(load_scene(run), run / "throws" / "01")
+    assert str(err.value).startswith(f"{run / 'throws' / '01' / 'throw.toml'}: ")
+    assert message in str(err.value) and "\n" not in str(err.value)
 
 
 # ----------------------------------------------------------------- experiment.toml

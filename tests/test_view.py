@@ -361,6 +361,73 @@ def test_fit_from_the_page_says_why_it_fails(tmp_path, vidtrack_cli):
     assert not (run / "vidtrack").exists()
 
 
+#: The flag of an excluded frame (docs/scene.md, "Correcting the tracker").
+EXCLUDED = 256
+
+
+def copy_throws_run(dst):
+    """run42's scene with its front view alone, and two throws of the same front footage
+    (so what differs between their tracks is what the test corrected)."""
+    dst.mkdir(parents=True)
+    text = (RUN42 / "scene.toml").read_text()
+    (dst / "scene.toml").write_text(text[:text.index("[views.top]")])
+    for throw in ("01", "02"):
+        (dst / "throws" / throw).mkdir(parents=True)
+        shutil.copy2(RUN42 / "front.avi", dst / "throws" / throw / "front.avi")
+    return dst
+
+
+def test_a_run_of_throws_corrections_go_to_the_throw_shown(tmp_path):
+    """A run with throws/: the page shows one throw at a time; a target, a point and an
+    exclusion go to that throw's throw.toml and manual points file, the origin to the
+    run's scene.toml; fitted from the page, the point is in that throw's tracks alone."""
+    from vidtrack.scene import load_scene, throw_scene
+
+    run = copy_throws_run(tmp_path / "run")
+    shared = (run / "scene.toml").read_text()
+    c = client(run)
+    state = c.get("/api/state").json
+    assert (state["throws"], state["throw"]) == (["01", "02"], "01")
+    assert state["views"]["front"]["source"] == "throws/01/front.avi"
+    r = c.post("/api/throw", json={"throw": "02"})
+    assert r.status_code == 200 and r.json["throw"] == "02"
+    assert r.json["views"]["front"]["source"] == "throws/02/front.avi"
+    assert edit(c, set="exclude", frame=20, excluded=True).json["written"] == [
+        "throws/02/throw.toml"]
+    assert edit(c, set="point", frame=100, at_px=[205.5, 50.25]).json["written"] == [
+        "throws/02/front_manual.csv", "throws/02/throw.toml"]
+    assert edit(c, set="target", frame=30, at_px=[150.0, 60.0]).status_code == 200
+    assert (run / "scene.toml").read_text() == shared
+    scene = load_scene(run)
+    two = throw_scene(scene, run / "throws" / "02").views["front"]
+    assert two.exclude_frames == ((20, 21),) and two.target == (30, (150.0, 60.0))
+    with open(run / "throws" / "02" / "front_manual.csv", newline="") as f:
+        assert [(r["frame"], r["u_px"], r["v_px"]) for r in csv.DictReader(f)] == [
+            ("100", "205.50", "50.25")]
+    assert throw_scene(scene, run / "throws" / "01") is scene    # 01: nothing of its own
+    r = edit(c, set="point", frame=20, at_px=[1.0, 2.0])          # refused: one line, no write
+    assert r.status_code == 400 and "\n" not in r.json["error"]
+    assert r.json["error"].startswith(f"{(run / 'throws' / '02' / 'throw.toml').resolve()}: ")
+    assert "has frame 20, which exclude_frames [20, 21) takes out" in r.json["error"]
+    assert edit(c, set="origin", at_px=[81.0, 70.0]).json["written"] == ["scene.toml"]
+    assert load_scene(run).views["front"].origin_px == (81.0, 70.0)
+    assert c.get("/api/frame/front/20").json["excluded"] is True
+    assert c.post("/api/throw", json={"throw": "01"}).status_code == 200
+    info = c.get("/api/frame/front/20").json
+    assert info["excluded"] is False and c.get("/api/frame/front/100").json["manual_px"] is None
+    assert c.post("/api/throw", json={"throw": "03"}).status_code == 400
+    assert c.post("/api/fit").status_code == 202
+    c.application.config["FIT_JOB"].wait()
+    assert c.get("/api/fit").json["state"] == "done"
+    rows = {t: pd.read_csv(run / "vidtrack" / t / "tracks.csv").set_index("frame")
+            for t in ("01", "02")}
+    assert (rows["02"].loc[100, "u_px"], rows["02"].loc[100, "v_px"]) == (205.5, 50.25)
+    assert rows["02"].loc[20, "flags"] & EXCLUDED and "EXCLUDED" in rows["02"].loc[
+        20, "flag_names"]
+    assert rows["01"].loc[100, "u_px"] != 205.5 and not rows["01"].loc[20, "flags"] & EXCLUDED
+    assert c.get("/api/frame/front/100").json["u_px"] == rows["01"].loc[100, "u_px"]
+
+
 def test_other_host_names_refused(tmp_path):
     run = copy_run(tmp_path / "run")
     c = client(run)
@@ -379,8 +446,8 @@ def test_help_has_an_example(vidtrack_cli):
     (lambda run: None, ["--no-browser"], "no such folder"),
     (lambda run: run.mkdir(), ["--no-browser"], "scene.toml: no such file"),
     (lambda run: copy_run(run), ["--port", "70000"], "--port 70000: expected a port"),
-    (lambda run: (copy_run(run), (run / "throws").mkdir()), ["--no-browser"],
-     "has throws/"),
+    (lambda run: (copy_run(run), (run / "throws").write_text("")), ["--no-browser"],
+     "expected a folder of replicate throws"),
     (lambda run: (copy_run(run), (run / "front.avi").write_bytes(b"not a video")),
      ["--no-browser"], "front.avi"),
 ])

@@ -3,7 +3,8 @@
 The real command serves the page on 127.0.0.1 (a child process); Selenium drives Debian's
 ``chromium`` through ``chromedriver``: it fits the run, clicks the frame to set the
 origin (the zoom following the pointer), steps frames, places a point by hand, excludes a
-frame, sets the target and removes it, and types a bad fps.
+frame, sets the target and removes it, and types a bad fps. In a run with throws/ it
+picks a throw, places a point by clicking the zoom and excludes a frame.
 Truth: tracks.csv written by the fit, the pixels the test clicked (worked out from the
 element's size and the display scale the page states), scene.toml and the manual points
 file read back by the scene loader and ``csv``. A screenshot of the page is kept
@@ -28,7 +29,8 @@ from selenium.webdriver.chrome.service import Service  # noqa: E402
 from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
-from test_view import copy_run, serve, stop  # noqa: E402
+from selenium.webdriver.support.ui import Select  # noqa: E402
+from test_view import copy_run, copy_throws_run, serve, stop  # noqa: E402
 
 from vidtrack.view.zoom import ZOOM_FACTOR, ZOOM_HALF_PX  # noqa: E402
 
@@ -69,9 +71,9 @@ def browser(tmp_path):
     driver.quit()
 
 
-@pytest.fixture
-def page(tmp_path, browser):
-    run = copy_run(tmp_path / "run")
+@pytest.fixture(params=[copy_run])
+def page(request, tmp_path, browser):
+    run = request.param(tmp_path / "run")
     proc, url = serve(run)
     browser.get(url)
     wait = WebDriverWait(browser, WAIT_S)
@@ -81,10 +83,11 @@ def page(tmp_path, browser):
     assert code == 0, err
 
 
-def click_frame(browser, frame_px):
-    """Click the drawn frame where the footage's pixel ``frame_px`` is; returns the pixel
-    the click lands on and how far off it may be in frame pixels: one CSS pixel (the
-    click's offsets are whole CSS pixels from the element's centre, which may not be)."""
+def click_frame(browser, frame_px, *, click=True):
+    """Click the drawn frame where the footage's pixel ``frame_px`` is (or only point at
+    it); returns the pixel the click lands on and how far off it may be in frame pixels:
+    one CSS pixel (the click's offsets are whole CSS pixels from the element's centre,
+    which may not be)."""
     img = browser.find_element(By.ID, "frame")
     scale = browser.execute_script("return state.views[view].scale;")
     w, h = img.size["width"], img.size["height"]
@@ -92,7 +95,8 @@ def click_frame(browser, frame_px):
     css_per_px = w / nat_w
     dx = round(((frame_px[0] + 0.5) * scale - 0.5) * css_per_px - w / 2)
     dy = round(((frame_px[1] + 0.5) * scale - 0.5) * css_per_px - h / 2)
-    ActionChains(browser).move_to_element_with_offset(img, dx, dy).click().perform()
+    move = ActionChains(browser).move_to_element_with_offset(img, dx, dy)
+    (move.click() if click else move).perform()
     return ([((w / 2 + dx) / css_per_px + 0.5) / scale - 0.5,
              ((h / 2 + dy) / css_per_px + 0.5) / scale - 0.5], 1.0 / (css_per_px * scale))
 
@@ -179,3 +183,48 @@ def test_set_up_and_correct_a_run_by_clicking(page, tmp_path):
     shot = tmp_path / "view.png"
     assert browser.save_screenshot(str(shot))
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("page", [copy_throws_run], indirect=True)
+def test_a_throw_picked_and_corrected_by_clicking_the_zoom(page, tmp_path):
+    """Throw 02 picked; the zoom clicked three pixels right of and two above the pixel it
+    is centred on places the point there, in throw 02's own file; an exclusion goes to
+    throw 02's throw.toml; scene.toml is untouched."""
+    run, browser, wait = page
+    shared = digest(run / "scene.toml")
+    Select(browser.find_element(By.ID, "throw")).select_by_value("02")
+    wait.until(lambda d: d.find_element(By.TAG_NAME, "body").get_attribute("data-throw")
+               == "02")
+    assert browser.find_element(By.ID, "run").text.endswith("throw 02")
+    click_frame(browser, (150.0, 60.0), click=False)          # the zoom follows the pointer
+    zoom = browser.find_element(By.ID, "zoom")
+    wait.until(lambda d: zoom.is_displayed() and d.execute_script(
+        "return arguments[0].complete && arguments[0].naturalWidth;", zoom))
+    wait.until(lambda d: "around 1" in d.find_element(By.ID, "zoom-at").text)
+    at = re.search(r"around ([-\d.]+), ([-\d.]+)", browser.find_element(By.ID, "zoom-at").text)
+    centre = [int(float(x) + 0.5) for x in (at[1], at[2])]   # the pixel outlined in the zoom
+    assert centre == [150, 60]
+    browser.find_element(By.ID, "tool-point").click()
+    w = zoom.size["width"]
+    css_per_px = w / browser.execute_script("return arguments[0].naturalWidth;", zoom)
+    dx, dy = 3, -2                                  # frame pixels from the centre pixel
+    ActionChains(browser).move_to_element_with_offset(
+        zoom, round((ZOOM_HALF_PX + dx + 0.5) * ZOOM_FACTOR * css_per_px - w / 2),
+        round((ZOOM_HALF_PX + dy + 0.5) * ZOOM_FACTOR * css_per_px - w / 2)).click().perform()
+    message(browser, wait, "wrote throws/02/front_manual.csv, throws/02/throw.toml")
+    with open(run / "throws" / "02" / "front_manual.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [int(r["frame"]) for r in rows] == [0]
+    assert [float(rows[0]["u_px"]), float(rows[0]["v_px"])] == pytest.approx(
+        [centre[0] + dx, centre[1] + dy], abs=1.0 / (ZOOM_FACTOR * css_per_px))
+    browser.find_element(By.ID, "next").click()
+    wait.until(lambda d: d.find_element(By.ID, "info").text.startswith("frame 1 "))
+    browser.find_element(By.ID, "exclude").click()
+    wait.until(lambda d: "excluded: yes" in d.find_element(By.ID, "info").text)
+    from vidtrack.scene import load_scene, throw_scene
+
+    scene = load_scene(run)
+    assert throw_scene(scene, run / "throws" / "02").views["front"].exclude_frames == ((1, 2),)
+    assert not (run / "throws" / "01" / "throw.toml").exists()
+    assert digest(run / "scene.toml") == shared
+    assert browser.save_screenshot(str(tmp_path / "view-throws.png"))

@@ -16,7 +16,12 @@ hand; type the capture fps; exclude or include the frame shown; fit the run agai
 'vidtrack fit' checks scene.toml and written at once (the file edited in place: your
 comments stay); what it refuses is shown as the same one-line message, and nothing is
 written. Points by hand go to the view's manual_points file (<view>_manual.csv unless
-scene.toml names one), excluded frames to exclude_frames.
+scene.toml names one), excluded frames to exclude_frames. A click on the zoom beside the
+frame places the point at the pixel the zoom shows there.
+
+A run with throws/ is shown one throw at a time (pick it at the top): its target,
+points by hand and excluded frames go to that throw's folder (throws/02/throw.toml and
+its manual points file), the origin, axes, ruler and fps to the run's scene.toml.
 
 A scene.toml that 'vidtrack init' wrote can be filled in here: the page opens while the
 file does not load yet, and says what is still missing.

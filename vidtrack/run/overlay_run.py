@@ -148,7 +148,7 @@ def overlay_run(run_dir, *, views=None, every=1, scale=1.0, frame_range=None, tr
                     raise VidtrackError(f"{target}: is a folder or a link; expected the "
                                         "overlay's file name to be free or a regular file")
     reasons = {plan.label(folder): why for folder, out in folders
-               if (why := stale_reason(scene, folder, out))}
+               if (why := stale_reason(plan.scene_of(folder), folder, out))}
     if reasons:
         _fit_first(plan, reasons, quiet)
     results = []

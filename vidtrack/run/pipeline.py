@@ -400,6 +400,7 @@ def fit_throw_folder(scene, folder, out_dir, options, workers=None, *, plan=None
     if plan is None:                 # a library caller: this throw's checks, here
         plan = RunPlan(scene=scene, out=out_dir, throws=[])
         with about(plan.label(folder)):
+            scene = plan.scene_of(folder)                # a throw's own throw.toml
             found, notes = _check_folder_sources(scene, folder,
                                                  lambda v: plan.label(folder, v))
             plan.findings[folder], plan.notes[folder] = found, notes
@@ -692,8 +693,8 @@ def fit_run(run_dir, options=FitOptions(), *, plan=None, workers=None):
     own = workers is None
     workers = {} if own else workers      # one worker process serves all the throws
     try:
-        records = [fit_throw_folder(scene, d, out / d.name, options, workers, plan=plan)
-                   for d in plan.throws]
+        records = [fit_throw_folder(plan.scene_of(d), d, out / d.name, options, workers,
+                                    plan=plan) for d in plan.throws]
     finally:
         if own:
             _stop_workers(workers)

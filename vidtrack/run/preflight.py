@@ -167,6 +167,8 @@ class RunPlan:
         tracking (the same footage for two views).
     notes : dict
         Throw folder -> notes for fit.json (a frame range clipped at the end).
+    scenes : dict
+        Throw folder -> the throw's scene (:meth:`scene_of`).
     """
 
     scene: object
@@ -174,6 +176,18 @@ class RunPlan:
     throws: list
     findings: dict = field(default_factory=dict)
     notes: dict = field(default_factory=dict)
+    scenes: dict = field(default_factory=dict)
+
+    def scene_of(self, folder):
+        """The scene of the throw in ``folder``: the run's with the throw's own
+        corrections (``throw.toml``) applied; the run's own for the run folder."""
+        if Path(folder) == self.scene.folder:
+            return self.scene
+        if folder not in self.scenes:
+            from vidtrack.scene.throw_file import throw_scene
+
+            self.scenes[folder] = throw_scene(self.scene, folder)
+        return self.scenes[folder]
 
     def label(self, folder=None, view=None):
         throw = (Path(folder).name if folder is not None and Path(folder) != self.scene.folder
@@ -291,8 +305,10 @@ def prepare_run(run_dir, *, open_sources=True, check_outputs=True):
     tracker_options(scene)          # the [track] table, checked before anything is tracked
     plan = RunPlan(scene=scene, out=scene.folder / OUT_DIR, throws=list(scene.throw_dirs()))
     for folder, _ in plan.folders():
+        with about(plan.label(folder)):
+            throw = plan.scene_of(folder)        # the throw's throw.toml, checked first
         findings, notes = _check_folder_sources(
-            scene, folder, lambda v, f=folder: plan.label(f, v), open_sources=open_sources)
+            throw, folder, lambda v, f=folder: plan.label(f, v), open_sources=open_sources)
         plan.findings[folder] = findings
         plan.notes[folder] = notes
     if check_outputs:

@@ -12,6 +12,7 @@ Every key is documented in ``docs/scene.md``. The modules:
 - ``experiment_file``: :func:`load_experiment`, :class:`Experiment`, :class:`Factor`;
 - ``folders``: :func:`find_throw_dirs` (a run's replicate throws), natural order,
   :func:`is_planned_scene` (a run `vidtrack design` planned, not filmed yet);
+- ``throw_file``: :func:`throw_scene`, a throw's own corrections (``throw.toml``) applied;
 - ``_check``: the key-by-key checker behind every one-line message.
 
 The public names below are importable from ``vidtrack.scene`` itself; each is loaded from
@@ -29,6 +30,7 @@ _EXPORTS = {
     "vidtrack.scene.experiment_file": ("Experiment", "Factor", "load_experiment",
                                        "EXPERIMENT_FILE"),
     "vidtrack.scene.folders": ("find_throw_dirs", "is_planned_scene", "PLAN_MARK"),
+    "vidtrack.scene.throw_file": ("throw_scene", "THROW_FILE"),
 }
 __getattr__, __dir__, _NAMES = lazy_exports(__name__, _EXPORTS)
 
@@ -36,5 +38,5 @@ __all__ = [
     "Scene", "ViewSpec", "Ruler", "Physics", "Straw", "Experiment", "Factor",
     "load_scene", "parse_scene", "scene_to_toml", "write_scene", "load_experiment",
     "find_throw_dirs", "is_planned_scene", "PLAN_MARK", "SCENE_FILE", "EXPERIMENT_FILE",
-    "SCHEMA", "VIEW_AXES",
+    "SCHEMA", "VIEW_AXES", "throw_scene", "THROW_FILE",
 ]

@@ -396,14 +396,20 @@ def parse_scene(data, *, folder, label=SCENE_FILE, path=None):
                   run_name=run_name, factors=factors, physics=physics, straw=straw,
                   machine_speed_kmh=speed, machine_speed_from=speed_from, views=views,
                   world=world, track=track)
+    return dataclasses.replace(scene, hash=scene_digest(scene))
+
+
+def scene_digest(scene):
+    """The ``hash`` of a :class:`Scene`: sha256 of its content (:meth:`Scene.to_dict`) and
+    of the calibration files its views name."""
     calib = {name: {"camera": v.camera.to_dict() if v.camera is not None else None,
                     "scale": v.scale.to_dict() if v.scale is not None else None}
-             for name, v in views.items() if v.calibration is not None and world is None}
+             for name, v in scene.views.items()
+             if v.calibration is not None and scene.world is None}
     # the scales' uncertainties change the fit's intervals, not the tracks: out of the hash
     # (the fit stage's key holds them), so stating one does not track the footage again
-    digest = _canonical_hash({"scene": _without_uncertainties(scene.to_dict()),
-                              "calibration": calib})
-    return dataclasses.replace(scene, hash=digest)
+    return _canonical_hash({"scene": _without_uncertainties(scene.to_dict()),
+                            "calibration": calib})
 
 
 def _without_uncertainties(content):

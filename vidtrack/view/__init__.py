@@ -1,8 +1,9 @@
 """``vidtrack view``: a local page to set up, check and correct a run.
 
 The page (served on 127.0.0.1 by Flask) shows each view's footage frame by frame with the
-overlay's marks, takes clicks into ``scene.toml`` and the manual points file, and fits the
-run again. The modules:
+overlay's marks, takes clicks into ``scene.toml`` and the manual points file (a throw's
+corrections into its own ``throw.toml``, in a run with ``throws/``), and fits the run
+again. The modules:
 
 - ``run_view``: :class:`RunView`, the run held open: scene, footage, tracks, fitted path,
   and a frame drawn as PNG;

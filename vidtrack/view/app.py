@@ -11,7 +11,10 @@ Routes (all JSON but the page and the frames):
 - ``GET /frame/<view>/<index>.png``: the frame with the marks drawn (:meth:`RunView.render`);
 - ``GET /zoom/<view>/<index>.png?u=U&v=V``: the footage's pixels around pixel (U, V),
   magnified (:meth:`RunView.zoom`);
-- ``POST /api/edit``: one edit of scene.toml (:func:`vidtrack.view.edits.apply_edit`);
+- ``POST /api/throw``: show another throw of a run with ``throws/`` (``{"throw": "02"}``);
+  answers the state;
+- ``POST /api/edit``: one edit of scene.toml, or of the throw's throw.toml for a
+  correction in a run with ``throws/`` (:func:`vidtrack.view.edits.apply_edit`);
 - ``POST /api/fit`` starts ``vidtrack fit RUN``, ``GET /api/fit`` says how it went.
 
 Requests that name another host than 127.0.0.1 or localhost are refused (403). Bad input
@@ -67,6 +70,12 @@ def create_app(run_dir):
         return app.response_class(png, mimetype="image/png",
                                   headers={"Cache-Control": "no-store"})
 
+    def shown():
+        """The run's state as the page shows it, and the fit's."""
+        out = run.state()
+        out["fit"] = job.status()
+        return jsonify(out)
+
     @app.before_request
     def this_machine_only():
         # served on 127.0.0.1 only; a page of another site that a browser sends here
@@ -86,9 +95,7 @@ def create_app(run_dir):
                 run.reload()
             except INPUT_ERRORS as exc:
                 return refused(exc)
-        out = run.state()
-        out["fit"] = job.status()
-        return jsonify(out)
+        return shown()
 
     @app.get("/api/frame/<view>/<int:index>")
     def frame_info(view, index):
@@ -116,22 +123,39 @@ def create_app(run_dir):
             return refused(exc)
         return image(png)
 
+    def json_object(where, what, fields):
+        """The request's JSON object and None, or None and the refusal."""
+        body = request.get_json(silent=True)
+        if isinstance(body, dict):
+            return body, None
+        return None, refused(f"{where}: the {what} must be a JSON object {fields}")
+
+    @app.post("/api/throw")
+    def throw():
+        body, no = json_object(run.folder, "request", '{"throw": ...}')
+        if no:
+            return no
+        try:
+            run.select_throw(body.get("throw"))
+        except INPUT_ERRORS as exc:
+            return refused(exc)
+        return shown()
+
     @app.post("/api/edit")
     def edit():
-        body = request.get_json(silent=True)
-        if not isinstance(body, dict):
-            return refused(f"{run.scene_path}: the edit must be a JSON object "
-                           "{\"view\": ..., \"set\": ...}")
+        body, no = json_object(run.scene_path, "edit", '{"view": ..., "set": ...}')
+        if no:
+            return no
         if job.status()["state"] == "running":
             return refused("a fit is running; edit scene.toml when it has finished", 409)
         try:
             name = body.get("view")
             n = run.frame_count(name) if name in run.view_names else 0
-            result = apply_edit(run.folder, body, n_frames=n)
+            result = apply_edit(run.folder, body, n_frames=n, throw=run.throw)
         except INPUT_ERRORS as exc:
             return refused(exc)
         run.reload()
-        return jsonify(result.to_dict())
+        return jsonify(result.to_dict(root=run.folder))
 
     @app.post("/api/fit")
     def fit_start():

@@ -16,8 +16,13 @@ loader's message about what is still missing comes back with it
 (:attr:`EditResult.scene_error`). An edit of a calibrated view is written only when the
 file fails after it exactly as it failed before.
 
+In a run with ``throws/`` the corrections (``target``, ``point``, ``exclude``) are the
+throw's own: they go to the throw folder's ``throw.toml`` and manual points file
+(:mod:`vidtrack.scene.throw_file`), checked as ``vidtrack fit`` checks them; the set-up
+(origin, axes, ruler, fps) goes to the run's ``scene.toml``, shared by every throw.
+
 Files are written whole or not at all (:mod:`vidtrack._atomic`): the manual points CSV
-first, then ``scene.toml``.
+first, then ``scene.toml`` (or ``throw.toml``).
 """
 
 import copy
@@ -34,6 +39,8 @@ __all__ = ["EditResult", "apply_edit", "axes_from_clicks", "frames_to_ranges",
 
 #: The edits the page can ask for (the ``set`` field of a request).
 EDITS = ("origin", "axes", "ruler", "fps", "target", "point", "exclude")
+#: The edits that correct the tracker: a throw's own, in a run with ``throws/``.
+CORRECTIONS = ("target", "point", "exclude")
 #: Views that have an origin, axes and a scale in scene.toml, and the world axes each sees.
 ORTHOGONAL_VIEWS = {"front": ("x", "y"), "top": ("x", "z")}
 #: Keys of a view that set its scale; a ruler clicked replaces the others.
@@ -67,8 +74,14 @@ class EditResult:
     written: tuple
     scene_error: str | None = None
 
-    def to_dict(self):
-        return {"written": [p.name for p in self.written], "scene_error": self.scene_error}
+    def to_dict(self, root=None):
+        """As JSON can take it: the files written named relative to ``root`` (the run
+        folder: ``throws/02/throw.toml``), or by their names."""
+        def name(p):
+            return str(p.relative_to(root)) if root is not None and p.is_relative_to(
+                root) else p.name
+
+        return {"written": [name(p) for p in self.written], "scene_error": self.scene_error}
 
 
 def _bad(label, key, message):
@@ -204,7 +217,7 @@ def with_stand_ins(view, name, keep):
     return alone
 
 
-def _manual_rows(folder, view_table):
+def _manual_rows(folder, view_table, label):
     """The view's manual points as ``{frame: (u, v)}`` (empty when none are named)."""
     from vidtrack.scene.corrections import manual_points_file, read_manual_points
 
@@ -214,8 +227,7 @@ def _manual_rows(folder, view_table):
     path = manual_points_file(folder, str(text))
     if not path.is_file():
         return {}
-    points = read_manual_points(path, label=str(folder / SCENE_FILE), key="manual_points",
-                                text=str(text))
+    points = read_manual_points(path, label=label, key="manual_points", text=str(text))
     return {f: (u, v) for f, u, v in zip(points.frames, points.u_px, points.v_px)}
 
 
@@ -268,7 +280,118 @@ def _check(folder, path, before, after, view, gives, manual_text=None, manual_na
         return error_after
 
 
-def apply_edit(folder, request, *, n_frames):
+def _check_throw(folder, path, scene_doc, throw_dir, throw_doc, view, manual_text=None,
+                 manual_name=None):
+    """Refuse what ``vidtrack fit`` refuses of a throw's edited ``throw.toml`` (and its
+    new manual points, checked from a copy); the run's own remaining error, or None.
+    While scene.toml does not load yet, a front/top view is checked alone (stand-ins
+    for its set-up values), with the throw's keys on it."""
+    from vidtrack.scene.read import parse_scene
+    from vidtrack.scene.throw_file import THROW_FILE, apply_throw
+
+    throw_doc = copy.deepcopy(throw_doc)
+    try:
+        scene = parse_scene(scene_doc, folder=folder, label=str(path), path=path)
+        scene_error = None
+    except SceneError as exc:
+        scene_error = str(exc)
+        if view not in ORTHOGONAL_VIEWS:
+            return scene_error           # a calibrated view: checked once the scene loads
+        alone = with_stand_ins(scene_doc["views"][view], view, ())
+        scene = parse_scene({"schema": 1, "views": {view: alone}}, folder=folder,
+                            label=str(path), path=path)
+        throw_doc = {"views": {view: throw_doc.get("views", {}).get(view, {})}}
+    with tempfile.TemporaryDirectory() as tmp:
+        probe = Path(tmp) / Path(manual_name or "none").name
+        if manual_text is not None:
+            probe.write_text(manual_text, encoding="utf-8")
+            throw_doc["views"][view]["manual_points"] = str(probe)
+        try:
+            apply_throw(scene, throw_doc, throw_dir, label=str(throw_dir / THROW_FILE))
+        except SceneError as exc:
+            text = str(exc)
+            raise SceneError(text if manual_text is None else
+                             text.replace(str(probe), manual_name)) from None
+    return scene_error
+
+
+def _throw_folder(folder, throw, label):
+    """The folder of throw ``throw`` (its name under ``throws/``)."""
+    from vidtrack.scene.folders import find_throw_dirs
+
+    dirs = {d.name: d for d in find_throw_dirs(folder)}
+    if throw not in dirs:
+        names = ", ".join(dirs) or "none: the run has no throws/"
+        raise SceneError(f"{label}: throw {throw!r} is not a throw of the run; expected one "
+                         f"of {names}")
+    return dirs[throw]
+
+
+def _throw_table(doc, name):
+    """The view's table of a throw's file, made when missing."""
+    import tomlkit
+
+    if "views" not in doc:
+        doc["views"] = tomlkit.table(is_super_table=True)
+    if name not in doc["views"]:
+        doc["views"][name] = tomlkit.table()
+    return doc["views"][name]
+
+
+def _correct(table, current, shared, request, *, label, key, n_frames, base, name,
+             own=False):
+    """A correction (target, point, exclude) written into ``table`` (a throw's ``own``
+    table, or scene.toml's), the view's values in effect being ``current`` and
+    scene.toml's ``shared``; the manual points file resolves in ``base``. Returns (the
+    manual points CSV's path, its new text or None, its name as written)."""
+    import tomlkit
+
+    what = request.get("set")
+    if what == "target" and request.get("at_px") is None:
+        if "target" not in table:
+            where = (" (the run's target, in scene.toml: it applies to every throw, remove "
+                     "it there)" if "target" in current else "")
+            _bad(label, f"{key}.target", f"is not set{where}; expected a target to remove")
+        del table["target"]
+        return None, None, None
+    frame = _frame(request.get("frame"), label, f"{key} frame", n_frames)
+    if what == "target":
+        target = tomlkit.inline_table()
+        target.update({"frame": frame,
+                       "at_px": _pair(request.get("at_px"), label, f"{key}.target.at_px")})
+        table["target"] = target
+        return None, None, None
+    if what == "exclude":
+        excluded = request.get("excluded")
+        if not isinstance(excluded, bool):
+            _bad(label, f"{key}.exclude_frames", f"edit needs excluded true or false, got "
+                 f"{excluded!r}")
+        frames = _ranges_to_frames(current.get("exclude_frames"))
+        (frames.add if excluded else frames.discard)(frame)
+        if frames or (own and shared.get("exclude_frames")):
+            table["exclude_frames"] = frames_to_ranges(frames)   # [] takes the run's out
+        elif "exclude_frames" in table:
+            del table["exclude_frames"]
+        return None, None, None
+    from vidtrack.scene.corrections import manual_points_file
+
+    rows = _manual_rows(base, current, label)
+    at = request.get("at_px")
+    if at is None:
+        rows.pop(frame, None)
+    else:
+        rows[frame] = tuple(_pair(at, label, f"{key}.manual_points (frame {frame})"))
+    text = str(current.get("manual_points") or MANUAL_FILE.format(view=name))
+    manual_text = _manual_csv(rows)
+    if rows:
+        table["manual_points"] = text
+    elif "manual_points" in table:
+        del table["manual_points"]
+        manual_text = None
+    return manual_points_file(base, text), manual_text, text
+
+
+def apply_edit(folder, request, *, n_frames, throw=None):
     """Apply one edit from the page to the run's scene.toml (and manual points file).
 
     Parameters
@@ -292,6 +415,9 @@ def apply_edit(folder, request, *, n_frames):
         - ``exclude``: ``frame`` and ``excluded`` (true or false): ``exclude_frames``.
     n_frames : int
         Frames in the view's footage (a frame clicked must be one of them).
+    throw : str, optional
+        In a run with ``throws/``, the throw shown (``"02"``): a target, point or
+        exclusion is written to that throw's ``throw.toml`` and manual points file.
 
     Returns
     -------
@@ -326,81 +452,63 @@ def apply_edit(folder, request, *, n_frames):
     if what in _GIVES and name not in ORTHOGONAL_VIEWS:
         _bad(label, key, f"is a calibrated view: its {what} comes from its camera model; "
              "expected a front or top view")
-    manual_text = csv_path = text = None
-    if what == "origin":
-        _set(table, "origin_px", _pair(request.get("at_px"), label, f"{key}.origin_px"))
-    elif what == "axes":
-        origin = before["views"][name].get("origin_px")
-        try:
-            origin = _pair(origin, label, f"{key}.origin_px")
-        except SceneError:
-            _bad(label, f"{key}.origin_px", f"is {origin!r}; set the origin before the axes")
-        first = _pair(request.get("first_px"), label, f"{key}.axes (first click)")
-        second = _pair(request.get("second_px"), label, f"{key}.axes (second click)")
-        try:
-            _set(table, "axes", axes_from_clicks(origin, first, second,
-                                                    ORTHOGONAL_VIEWS[name]))
-        except ValueError as exc:
-            _bad(label, f"{key}.axes", f"cannot be read from the clicks: {exc}")
-    elif what == "ruler":
-        a = _pair(request.get("from_px"), label, f"{key}.ruler.from_px")
-        b = _pair(request.get("to_px"), label, f"{key}.ruler.to_px")
-        if math.hypot(b[0] - a[0], b[1] - a[1]) < MIN_RULER_PX:
-            _bad(label, f"{key}.ruler", f"ends {a} and {b} are less than {MIN_RULER_PX:g} px "
-                 "apart; expected a click on each end of the ruler")
-        length = _number(request.get("length_m"), label, f"{key}.ruler.length_m",
-                         "the ruler's length in m (a number > 0)")
-        for k in SCALE_KEYS:
-            if k in table:
-                del table[k]
-        ruler = tomlkit.inline_table()
-        ruler.update({"length_m": length, "from_px": a, "to_px": b})
-        table["ruler"] = ruler
-    elif what == "fps":
-        _set(table, "fps", _number(request.get("fps"), label, f"{key}.fps",
-                                   "the capture rate in frames/s (a number > 0)"))
-    elif what == "target" and request.get("at_px") is None:
-        if "target" not in table:
-            _bad(label, f"{key}.target", "is not set; expected a target to remove")
-        del table["target"]
-    else:
-        frame = _frame(request.get("frame"), label, f"{key} frame", n_frames)
-        if what == "target":
-            target = tomlkit.inline_table()
-            target.update({"frame": frame,
-                           "at_px": _pair(request.get("at_px"), label, f"{key}.target.at_px")})
-            table["target"] = target
-        elif what == "exclude":
-            excluded = request.get("excluded")
-            if not isinstance(excluded, bool):
-                _bad(label, f"{key}.exclude_frames", f"edit needs excluded true or false, got "
-                     f"{excluded!r}")
-            frames = _ranges_to_frames(before["views"][name].get("exclude_frames"))
-            (frames.add if excluded else frames.discard)(frame)
-            if frames:
-                table["exclude_frames"] = frames_to_ranges(frames)
-            elif "exclude_frames" in table:
-                del table["exclude_frames"]
-        else:   # point
-            rows = _manual_rows(folder, table)
-            at = request.get("at_px")
-            if at is None:
-                rows.pop(frame, None)
-            else:
-                rows[frame] = tuple(_pair(at, label, f"{key}.manual_points (frame {frame})"))
-            text = str(table.get("manual_points") or MANUAL_FILE.format(view=name))
-            from vidtrack.scene.corrections import manual_points_file
+    if what in CORRECTIONS and throw is not None:
+        from vidtrack.scene.throw_file import THROW_FILE
 
-            csv_path = manual_points_file(folder, text)
-            manual_text = _manual_csv(rows)
-            if rows:
-                table["manual_points"] = text
-            elif "manual_points" in table:
-                del table["manual_points"]
-                manual_text = None
-    after = doc.unwrap()
-    scene_error = _check(folder, path, before, after, name, _GIVES.get(what, ()),
-                         manual_text=manual_text, manual_name=text)
+        throw_dir = _throw_folder(folder, throw, label)
+        own = throw_dir / THROW_FILE
+        throw_doc = _load_doc(own) if own.exists() else tomlkit.document()
+        shared = before["views"][name]
+        current = dict(shared, **throw_doc.unwrap().get("views", {}).get(name, {}))
+        csv_path, manual_text, text = _correct(
+            _throw_table(throw_doc, name), current, shared, request, label=str(own),
+            key=key, n_frames=n_frames, base=throw_dir, name=name, own=True)
+        if not throw_doc["views"][name]:
+            del throw_doc["views"][name]
+        scene_error = _check_throw(folder, path, before, throw_dir, throw_doc.unwrap(), name,
+                                   manual_text=manual_text, manual_name=text)
+        path, doc = own, throw_doc
+    else:
+        csv_path = manual_text = text = None
+        if what == "origin":
+            _set(table, "origin_px", _pair(request.get("at_px"), label, f"{key}.origin_px"))
+        elif what == "axes":
+            origin = before["views"][name].get("origin_px")
+            try:
+                origin = _pair(origin, label, f"{key}.origin_px")
+            except SceneError:
+                _bad(label, f"{key}.origin_px", f"is {origin!r}; set the origin before the "
+                     "axes")
+            first = _pair(request.get("first_px"), label, f"{key}.axes (first click)")
+            second = _pair(request.get("second_px"), label, f"{key}.axes (second click)")
+            try:
+                _set(table, "axes", axes_from_clicks(origin, first, second,
+                                                        ORTHOGONAL_VIEWS[name]))
+            except ValueError as exc:
+                _bad(label, f"{key}.axes", f"cannot be read from the clicks: {exc}")
+        elif what == "ruler":
+            a = _pair(request.get("from_px"), label, f"{key}.ruler.from_px")
+            b = _pair(request.get("to_px"), label, f"{key}.ruler.to_px")
+            if math.hypot(b[0] - a[0], b[1] - a[1]) < MIN_RULER_PX:
+                _bad(label, f"{key}.ruler", f"ends {a} and {b} are less than "
+                     f"{MIN_RULER_PX:g} px apart; expected a click on each end of the ruler")
+            length = _number(request.get("length_m"), label, f"{key}.ruler.length_m",
+                             "the ruler's length in m (a number > 0)")
+            for k in SCALE_KEYS:
+                if k in table:
+                    del table[k]
+            ruler = tomlkit.inline_table()
+            ruler.update({"length_m": length, "from_px": a, "to_px": b})
+            table["ruler"] = ruler
+        elif what == "fps":
+            _set(table, "fps", _number(request.get("fps"), label, f"{key}.fps",
+                                       "the capture rate in frames/s (a number > 0)"))
+        else:
+            csv_path, manual_text, text = _correct(
+                table, before["views"][name], before["views"][name], request, label=label,
+                key=key, n_frames=n_frames, base=folder, name=name)
+        scene_error = _check(folder, path, before, doc.unwrap(), name, _GIVES.get(what, ()),
+                             manual_text=manual_text, manual_name=text)
     written = []
     if csv_path is not None and (manual_text is not None or csv_path.is_file()):
         write_text(csv_path, manual_text if manual_text is not None else _manual_csv({}))

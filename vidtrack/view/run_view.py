@@ -3,10 +3,13 @@
 :class:`RunView` holds a run folder open for the page: the scene (or the loader's
 message while it does not load yet), each view's footage (opened lazily, one frame read
 at a time), the tracks and the fitted path when ``vidtrack fit`` has written them, and
-the corrections of ``scene.toml``. :meth:`RunView.render` draws a frame with the overlay's
-own drawing (:func:`vidtrack.report.overlay.draw_frame`: the scene's origin, axes and
-ruler, the trail, the measured point in its flag colour, the fitted path, the banner with
-the flags and their reason), plus the corrections: a point placed by hand (a square in
+the corrections of ``scene.toml``. In a run with ``throws/`` it shows one throw at a time
+(:meth:`RunView.select_throw`): that throw's footage, tracks and fitted path, and its
+corrections (scene.toml's with the throw's ``throw.toml`` over them).
+:meth:`RunView.render` draws a frame with the overlay's own drawing
+(:func:`vidtrack.report.overlay.draw_frame`: the scene's origin, axes and ruler, the
+trail, the measured point in its flag colour, the fitted path, the banner with the flags
+and their reason), plus the corrections: a point placed by hand (a square in
 :data:`MANUAL_COLOUR`), the ``target`` (a diamond) and ``excluded`` in the banner.
 """
 
@@ -21,6 +24,7 @@ from vidtrack.errors import SceneError, VidtrackError
 from vidtrack.scene.model import SCENE_FILE
 from vidtrack.view.edits import ORTHOGONAL_VIEWS, SET_UP, with_stand_ins
 from vidtrack.view.view_data import EMPTY, view_data
+from vidtrack.view.zoom import ZOOM_FACTOR, ZOOM_HALF_PX
 
 __all__ = ["RunView", "DISPLAY_WIDTH_PX", "MANUAL_COLOUR", "TARGET_COLOUR"]
 
@@ -81,16 +85,19 @@ class RunView:
     Parameters
     ----------
     folder : str or pathlib.Path
-        The run folder (with ``scene.toml``; one throw: a run with ``throws/`` is refused).
+        The run folder (with ``scene.toml``).
+    throw : str, optional
+        In a run with ``throws/``, the throw shown first (default: the first).
 
     Raises
     ------
     VidtrackError
-        No such folder, no scene.toml, a file that is not TOML, a run with ``throws/``,
-        no view with footage, footage that cannot be opened (one line each).
+        No such folder, no scene.toml, a file that is not TOML, no view with footage,
+        footage that cannot be opened, a throw that is not one of the run's (one line
+        each).
     """
 
-    def __init__(self, folder):
+    def __init__(self, folder, throw=None):
         folder = Path(folder)
         if not folder.is_dir():
             raise VidtrackError(f"{folder}: no such folder; expected a run folder with "
@@ -100,12 +107,16 @@ class RunView:
         if not self.scene_path.is_file():
             raise SceneError(f"{self.scene_path}: no such file; expected the run's "
                              f"{SCENE_FILE} (vidtrack init {folder} writes one)")
-        if (self.folder / "throws").is_dir():
-            raise VidtrackError(f"{folder}: has throws/; the page opens a run of one throw "
-                                "(expected a run folder without throws/)")
+        from vidtrack.scene.folders import find_throw_dirs
+
+        self.throws = [d.name for d in find_throw_dirs(self.folder)]
+        self.throw = self.throws[0] if self.throws else None
         self._lock = threading.RLock()
         self._footage, self._data = {}, {}
-        self.reload()
+        if throw is not None:
+            self.select_throw(throw)
+        else:
+            self.reload()
         if not self._footage:
             raise SceneError(f"{self.scene_path}: no view gives footage (views.<name>.source);"
                              " expected at least one")
@@ -114,9 +125,47 @@ class RunView:
                 self._footage[name].source  # noqa: B018 - opened now: bad footage refused
 
     # ------------------------------------------------------------------ state
+    @property
+    def throw_dir(self):
+        """The folder of the throw shown (the run folder in a run of one throw)."""
+        return self.folder / "throws" / self.throw if self.throw else self.folder
+
+    def select_throw(self, throw):
+        """Show throw ``throw`` (its name under ``throws/``) from now on.
+
+        Raises
+        ------
+        VidtrackError
+            Not a throw of the run (one line).
+        """
+        if throw not in self.throws:
+            names = ", ".join(self.throws) or "none: the run has no throws/"
+            raise VidtrackError(f"throw {throw!r}: not a throw of {self.folder}; expected "
+                                f"one of {names}")
+        with self._lock:
+            self.throw = throw
+            self.reload()
+
+    def _throw_views(self):
+        """The view tables of the throw's throw.toml ({} when it has none), and what
+        reading it refused (None)."""
+        from vidtrack.scene.throw_file import THROW_FILE
+
+        path = self.throw_dir / THROW_FILE
+        if not self.throw or not path.is_file():
+            return {}, None
+        try:
+            raw = tomllib.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+            return {}, f"{path}: cannot be read as TOML ({exc})"
+        views = raw.get("views") if isinstance(raw.get("views"), dict) else {}
+        return {k: v for k, v in views.items() if isinstance(v, dict)}, None
+
     def reload(self):
-        """Read scene.toml, the tracks and the fit again (after an edit or a fit)."""
+        """Read scene.toml (and the throw's throw.toml), the tracks and the fit again
+        (after an edit or a fit)."""
         from vidtrack.scene.read import parse_scene
+        from vidtrack.scene.throw_file import throw_scene
 
         with self._lock:
             try:
@@ -130,6 +179,13 @@ class RunView:
                 self.scene_error = None
             except SceneError as exc:
                 self.scene, self.scene_error = None, str(exc)
+            own, error = self._throw_views()
+            if self.scene is not None and self.throw:
+                try:
+                    self.scene = throw_scene(self.scene, self.throw_dir)
+                except SceneError as exc:
+                    error = str(exc)
+            self.scene_error = self.scene_error or error
             views = raw.get("views") if isinstance(raw.get("views"), dict) else {}
             for name, table in views.items():
                 if not isinstance(table, dict) or not isinstance(table.get("source"), str):
@@ -138,7 +194,7 @@ class RunView:
                 fps = fps if isinstance(fps, (int, float)) and not isinstance(
                     fps, bool) and 0 < fps < 1e7 else None
                 channel = table.get("channel") if isinstance(table.get("channel"), str) else "luma"
-                path = self.folder / table["source"]
+                path = self.throw_dir / table["source"]
                 old = self._footage.get(name)
                 if old is None or (old.path, old.fps, old.channel) != (path, fps, channel):
                     if old is not None:
@@ -148,7 +204,8 @@ class RunView:
             for name in self._footage:
                 self._views[name] = self._view_spec(name, views.get(name, {}))
             self._read_outputs()
-            self._data = {name: view_data(self.folder, self.scene_path, name, views.get(name),
+            self._data = {name: view_data(self.throw_dir, self.scene_path, name,
+                                          _in_effect(views.get(name), own.get(name)),
                                           self.tracks.get(name), self.paths.get(name))
                           for name in self._footage}
 
@@ -164,7 +221,7 @@ class RunView:
         from vidtrack.run.tracks_file import read_tracks
 
         self.tracks, self.paths, self.notes = {}, {}, []
-        out = self.folder / "vidtrack"
+        out = self.folder / "vidtrack" / (self.throw or "")
         h5 = out / "tracks.h5"
         if not h5.is_file():
             self.notes.append("not fitted yet: no tracks (Fit draws them)")
@@ -179,7 +236,7 @@ class RunView:
             return
         from vidtrack.run.overlay_run import stale_reason
 
-        why = stale_reason(self.scene, self.folder, out)
+        why = stale_reason(self.scene, self.throw_dir, out)
         if why:
             self.notes.append(f"tracks and fit not current: {why} (Fit updates them)")
         try:
@@ -240,6 +297,8 @@ class RunView:
                 }
             run_name = self.scene.run_name if self.scene is not None else self.folder.name
             return {"run": run_name, "folder": str(self.folder), "views": views,
+                    "throws": list(self.throws), "throw": self.throw,
+                    "zoom": {"half_px": ZOOM_HALF_PX, "factor": ZOOM_FACTOR},
                     "scene_error": self.scene_error, "notes": list(self.notes)}
 
     # ------------------------------------------------------------------ one frame
@@ -348,6 +407,13 @@ class RunView:
             src = self._frame_source(name, index)
             centre = zoom_centre(at_px, src.shape[:2])
             return _png(zoom_image(to_bgr8(src[index], src.bit_depth), centre), name, index)
+
+
+def _in_effect(shared, own):
+    """A view's table as in effect for a throw: scene.toml's (``shared``) with the keys
+    of the throw's throw.toml (``own``) over it."""
+    shared = shared if isinstance(shared, dict) else {}
+    return dict(shared, **own) if own else shared
 
 
 def _png(img, name, index):

@@ -4,6 +4,8 @@ const $ = (id) => document.getElementById(id);
 let state = null, view = null, index = 0, tool = null, clicks = [];
 // the zoom: the frame pixel it is centred on, the last URL asked for, one request at a time
 let zoomAt = null, zoomUrl = null, zoomBusy = false;
+// the frame pixel at the centre of the zoom shown (pixel centres at integers)
+let zoomShown = null;
 
 const HINTS = {
   origin: "click the origin O (the centre of the blade shaft)",
@@ -29,12 +31,17 @@ async function api(path, body) {
   return data;
 }
 
-async function loadState() {
-  state = await api("/api/state");
-  $("run").textContent = state.run;
+async function loadState(answer) {
+  state = answer || await api("/api/state");
+  $("run").textContent = state.run + (state.throw ? ", throw " + state.throw : "");
   const err = $("scene-error");
   err.hidden = !state.scene_error;
-  err.textContent = state.scene_error ? "scene.toml does not load yet: " + state.scene_error : "";
+  err.textContent = state.scene_error ? "the scene does not load yet: " + state.scene_error
+                                      : "";
+  const pick = $("throw");
+  $("throw-pick").hidden = !state.throws.length;
+  if (!pick.options.length) for (const t of state.throws) pick.add(new Option(t, t));
+  if (state.throw) pick.value = state.throw;
   $("notes").innerHTML = "";
   for (const n of state.notes) {
     const li = document.createElement("li");
@@ -114,9 +121,10 @@ function zoom(px) {
               "&v=" + zoomAt[1];
   if (url === zoomUrl) return;
   const z = $("zoom");
+  const centre = zoomAt.map((x) => Math.floor(x + 0.5));
   zoomBusy = true;
   zoomUrl = url;
-  z.onload = () => { zoomBusy = false; z.hidden = false; zoom(); };
+  z.onload = () => { zoomBusy = false; z.hidden = false; zoomShown = centre; zoom(); };
   z.onerror = () => { zoomBusy = false; z.hidden = true; zoom(); };
   z.src = url;
   $("zoom-at").textContent = "zoom: around " + zoomAt.join(", ");
@@ -134,9 +142,27 @@ async function edit(body) {
   }
 }
 
+// A click on the zoom -> the footage's pixel it shows: each frame pixel is a block of
+// state.zoom.factor drawn pixels, the centre pixel's block state.zoom.half_px blocks in.
+function zoomPixel(ev) {
+  const z = $("zoom"), r = z.getBoundingClientRect(), f = state.zoom.factor;
+  const x = (ev.clientX - r.left) * z.naturalWidth / r.width;
+  const y = (ev.clientY - r.top) * z.naturalHeight / r.height;
+  return [+(zoomShown[0] + x / f - state.zoom.half_px - 0.5).toFixed(2),
+          +(zoomShown[1] + y / f - state.zoom.half_px - 0.5).toFixed(2)];
+}
+
 async function onFrameClick(ev) {
+  await place(framePixel(ev));
+}
+
+async function onZoomClick(ev) {
+  if (zoomShown) await place(zoomPixel(ev));
+}
+
+// A pixel clicked (on the frame or on the zoom) -> the tool's edit.
+async function place(px) {
   if (!tool) { say("choose what to click first (origin, axes, ruler, target, point)"); return; }
-  const px = framePixel(ev);
   const frame = Number($("frame").dataset.frame);
   clicks.push(px);
   const t = tool;
@@ -163,11 +189,22 @@ async function pollFit() {
 function init() {
   $("frame").addEventListener("click", onFrameClick);
   $("frame").addEventListener("mousemove", (ev) => zoom(framePixel(ev)));
+  $("zoom").addEventListener("click", onZoomClick);
+  $("throw").onchange = async () => {
+    try {
+      await loadState(await api("/api/throw", {throw: $("throw").value}));
+      zoomAt = null; zoomShown = null;
+      await show(0);
+      document.body.dataset.throw = state.throw;   // the throw picked is shown
+    } catch (e) { say(e.message, "error"); }
+  };
   $("prev").onclick = () => show(index - 1);
   $("next").onclick = () => show(index + 1);
   $("index").onchange = () => show(Number($("index").value));
   $("slider").oninput = () => show(Number($("slider").value));
-  $("view").onchange = () => { view = $("view").value; zoomAt = null; show(0); };
+  $("view").onchange = () => {
+    view = $("view").value; zoomAt = null; zoomShown = null; show(0);
+  };
   for (const b of document.querySelectorAll("button.tool")) {
     b.onclick = () => setTool(b.dataset.tool);
   }
