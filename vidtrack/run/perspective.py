@@ -338,6 +338,18 @@ def _scaled(world_data, mapping, view, reference, foot, distance):
     return data
 
 
+def _merged_as_given(tracks, mappings, sync, world):
+    """The views merged as the run merged them: their scales measured on the shared X
+    and reconciled where it did that (:mod:`vidtrack.world.shared_x`)."""
+    from vidtrack.world.orthogonal import merge_tracks
+    from vidtrack.world.shared_x import merge_reconciled
+
+    shared = getattr(world, "shared_x", None)
+    if shared is None:
+        return merge_tracks(tracks, mappings, sync=sync)
+    return merge_reconciled(tracks, mappings, sync=sync, rel=shared.rel_uncertainty)
+
+
 def perspective_effect(scene, tracks, world, fit, *, cp, model="quadratic"):
     """The effect on k of the perspective left uncorrected, per view, and the notes.
 
@@ -371,7 +383,8 @@ def perspective_effect(scene, tracks, world, fit, *, cp, model="quadratic"):
     if len(names) != 2 or not all(v in getattr(world, "t0_s", {}) for v in names):
         return None
     # as the world track was merged: the scales reconciled on the shared X where they were
-    mappings = world.mappings({n: scene.views[n].mapping() for n in names})
+    given = {n: scene.views[n].mapping() for n in names}
+    mappings = world.mappings(given)
     unknown = [v for v in names if mappings[v].camera_distance_m is None]
     if not unknown:
         return None
@@ -426,9 +439,11 @@ def perspective_effect(scene, tracks, world, fit, *, cp, model="quadratic"):
                             plain.append(fit_throw(merge_tracks(tracks, mappings,
                                                                 sync=sync).data,
                                                    errors=False, near=fit, **fit_args))
-                        maps = dict(mappings)
-                        maps[v] = dataclasses.replace(mappings[v], camera_distance_m=distance)
-                        moved = fit_throw(merge_tracks(tracks, maps, sync=sync).data,
+                        # as a run with the distance given: from the scene's scales,
+                        # measured (and reconciled) again on the corrected shared X
+                        maps = dict(given)
+                        maps[v] = dataclasses.replace(given[v], camera_distance_m=distance)
+                        moved = fit_throw(_merged_as_given(tracks, maps, sync, world).data,
                                           errors=False, near=fit, **fit_args)
                     base = plain[0].coefficients
                     shift = {k: moved.coefficients[k].value - base[k].value for k in stderr
