@@ -190,7 +190,8 @@ def test_note_states_the_shift_the_distance_makes(square_rig):
     for k, (shift, share) in stated.items():
         measured = given["coefficients"][k]["value"] - missing["coefficients"][k]["value"]
         stderr = missing["coefficients"][k]["stderr"]
-        assert share == pytest.approx(abs(shift) / stderr, rel=0.02, abs=0.01), k
+        # the note prints the share to 2 significant digits (1.5 for 1.53: 3.3 % at most)
+        assert share == pytest.approx(abs(shift) / stderr, rel=0.034, abs=0.01), k
         if share < NOTE_SHARE:
             # k4 (the top view's axis): barely moved, as measured
             assert k == "k4" and abs(measured) < NOTE_SHARE * stderr

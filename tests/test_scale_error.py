@@ -108,24 +108,6 @@ def test_a_ruler_read_off_moves_k_as_the_delta_method_predicts(tmp_path, vidtrac
     assert r.returncode == 0 and " ± " in r.stdout and "± fit ± scale" in r.stdout
 
 
-def _perturbed_scene(scene, rng, sigma_px):
-    """``scene`` with every ruler end moved by N(0, sigma_px) in u and v."""
-    import dataclasses
-
-    from calibration.scale import Scale, ruler_scale
-
-    views = {}
-    for n, v in scene.views.items():
-        a = tuple(np.add(v.ruler.from_px, rng.normal(0, sigma_px, 2)))
-        b = tuple(np.add(v.ruler.to_px, rng.normal(0, sigma_px, 2)))
-        s = ruler_scale(v.ruler.length_m, a, b)
-        ruler = dataclasses.replace(v.ruler, from_px=a, to_px=b)
-        views[n] = dataclasses.replace(v, ruler=ruler, scale=Scale(
-            m_per_px=s.m_per_px, method="ruler", length_m=s.length_m, from_px=a, to_px=b,
-            span_px=s.span_px))
-    return dataclasses.replace(scene, views=views)
-
-
 def coverage(seeds=4, readings=10, sigma_px=0.5, rng_seed=0,
              exposure_samples=EXPOSURE_SAMPLES):
     """Share of throws whose fit-only and total 95 % intervals cover the truth, per k.
@@ -137,6 +119,7 @@ def coverage(seeds=4, readings=10, sigma_px=0.5, rng_seed=0,
     change the tracks).
     """
     from fits.lsq import fit_throw
+    from vidtrack.bench.coverage import read_by_eye
     from vidtrack.run.scale_error import scale_error
     from vidtrack.run.tracks_file import read_tracks
     from vidtrack.scene import load_scene
@@ -151,7 +134,7 @@ def coverage(seeds=4, readings=10, sigma_px=0.5, rng_seed=0,
         tracks = read_tracks(folder / "vidtrack" / "tracks.h5").tracks
         true_k = truth(folder)["truth"]["k"]
         for _ in range(readings):
-            sc = _perturbed_scene(scene, rng, sigma_px)
+            sc = read_by_eye(scene, rng, sigma_px, origin=False)
             world = merge_tracks(tracks, {v: sc.views[v].mapping() for v in sc.views},
                                  sync={v: sc.views[v].sync_frame for v in sc.views})
             fit = fit_throw(world.data, sc.cp_s_per_m, g=sc.physics.gravity_m_s2,

@@ -63,8 +63,14 @@ def bench_track_real(out_dir, *, quick=False, progress=None, engines=None, clips
     return format_scoreboard(table)
 
 
-def bench_fit(out_dir, *, quick=False, progress=None, seeds=None, repeats=3, warmup=1):
-    """k error against frames used and run time; whole fit against plain decoding."""
+def bench_fit(out_dir, *, quick=False, progress=None, seeds=None, repeats=3, warmup=1,
+              coverage=None):
+    """k error against frames used and run time; whole fit against plain decoding. With
+    ``coverage`` (a number of throws): the 95 % intervals' coverage instead."""
+    if coverage:
+        from vidtrack.bench.coverage import run_coverage_bench
+
+        return run_coverage_bench(out_dir, throws=coverage, progress=progress)
     from vidtrack.bench.fit import run_fit_bench
 
     return run_fit_bench(out_dir, quick=quick,

@@ -33,9 +33,9 @@ __all__ = ["STAGES_FILE", "Stages", "file_digest", "utc_now", "stage_key", "trac
 #: Version of the algorithm of each stage (outside the tracker): change it whenever the
 #: stage would compute something else from the same inputs and settings, so that no
 #: result of the older code is reused. The fit stage: fits.lsq's fit and its record.
-FIT_ALGORITHM = "fit-2026.11-4"
+FIT_ALGORITHM = "fit-2026.11-5"
 #: The world track: the merge of orthogonal views and the triangulation of cameras.
-WORLD_ALGORITHM = "world-2026.11-2"
+WORLD_ALGORITHM = "world-2026.11-3"
 #: The tracker, when vidtrack.track.tracker has no ``ALGORITHM_VERSION`` of its own;
 #: the digest of the tracker's source goes with it (:func:`tracker_version`).
 TRACK_ALGORITHM = "track-2026.11-1"

@@ -263,6 +263,12 @@ def mean_accelerations(world):
     return out
 
 
+def _shared_x_said(world):
+    """What the views' relative scale on the shared X says (empty when not measured)."""
+    shared = getattr(world, "shared_x", None)
+    return "" if shared is None else f"; {shared.note()}"
+
+
 def cross_checks(world, tracks, mappings, *, g=9.80665, sources=None):
     """Every way the inputs of a run (or throw) disagree, as :class:`Finding` s.
 
@@ -294,8 +300,8 @@ def cross_checks(world, tracks, mappings, *, g=9.80665, sources=None):
             f"RMS ({world.x_rms_px:.3g} px over {world.x_points} points; good runs agree "
             f"within {X_RMS_MAX_PX:g} px): check each view's fps, source, scale and "
             "origin_px, and whether one view followed another object (vidtrack overlay "
-            "shows each view's track; a target in that view's table names the straw)",
-            world.x_rms_px, X_RMS_MAX_PX))
+            "shows each view's track; a target in that view's table names the straw)"
+            + _shared_x_said(world), world.x_rms_px, X_RMS_MAX_PX))
     sr = speed_ratio(world, tracks, mappings)
     if sr is not None and abs(sr["ratio"] - 1.0) > SPEED_RATIO_TOL:
         ref, other = sr["reference"], sr["other"]

@@ -71,6 +71,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vidtrack.run.scale_error import K_NAMES
+from vidtrack.world.shared_x import MIN_POINTS, common_points, widened_lstsq
 
 log = logging.getLogger(__name__)
 
@@ -99,10 +100,6 @@ WIDEST_FIELD_DEG = 90.0
 #: corrected at the estimate and one least-squares fit); it stops when 1 / d moves by
 #: less than a hundredth of its standard error.
 _REFINE_PASSES = 6
-#: Fewest points at common times for the fit of the X disagreement.
-_MIN_POINTS = 20
-#: Largest lag-1 autocorrelation used to widen the standard error of 1 / d.
-_MAX_RHO = 0.95
 
 
 @dataclass(frozen=True)
@@ -197,12 +194,6 @@ def _quiet_merges():
         merge_log.setLevel(level)
 
 
-def _interp_gapless(t_new, t, y, max_step):
-    from vidtrack.world.orthogonal import _interp_gapless as interp
-
-    return interp(t_new, t, y, max_step)
-
-
 def _step(track):
     t = track.data["t_s"].to_numpy(dtype=np.float64)
     dt = np.diff(t)
@@ -235,29 +226,10 @@ def nearest_plausible_distance(mapping, track, max_depth_m):
     return max(fov, 2.0 * max(float(max_depth_m), 0.0))
 
 
-def _common(points, t0, reference, steps):
-    """The views' coordinates at the reference view's times t >= 0 (the other view's
-    interpolated between its points, never across gaps): {column_view: array}, t."""
-    other = next(v for v in points if v != reference)
-    p, q = points[reference], points[other]
-    t = p["t_s"].to_numpy(dtype=np.float64) - t0[reference]
-    keep = t >= 0
-    t = t[keep]
-    tq = q["t_s"].to_numpy(dtype=np.float64) - t0[other]
-    cols = {}
-    for c in ("x_m", "y_m", "z_m"):
-        if c in p:
-            cols[(c[0], reference)] = p[c].to_numpy(dtype=np.float64)[keep]
-        if c in q:
-            cols[(c[0], other)] = _interp_gapless(t, tq, q[c].to_numpy(dtype=np.float64),
-                                                  2.5 * steps[other])
-    return cols, t
-
-
 def _fit_disagreement(points, t0, reference, steps, mappings, feet, unknown):
     """a_v = 1 / d_v and their standard errors from the views' disagreement on X (the
     module's step 1, one least-squares fit); None when too few common points."""
-    cols, t = _common(points, t0, reference, steps)
+    cols, t = common_points(points, t0, reference, steps)
     other = next(v for v in points if v != reference)
     if ("x", reference) not in cols or ("x", other) not in cols:
         return None
@@ -271,7 +243,7 @@ def _fit_disagreement(points, t0, reference, steps, mappings, feet, unknown):
     for v in unknown:
         ok &= np.isfinite(depth[v])
     n = int(np.count_nonzero(ok))
-    if n < _MIN_POINTS + 2 + len(unknown):
+    if n < MIN_POINTS + 2 + len(unknown):
         return None
     xk = x[ok]
     r = xk - cols[("x", other)][ok]
@@ -279,22 +251,11 @@ def _fit_disagreement(points, t0, reference, steps, mappings, feet, unknown):
     for v in unknown:
         i = mappings[v].world_axes.index("x")
         design.append((1.0 if v == reference else -1.0) * depth[v][ok] * (xk - feet[v][i]))
-    a = np.column_stack(design)
-    scale = np.linalg.norm(a, axis=0)
-    scale[scale == 0] = 1.0
-    coef, *_ = np.linalg.lstsq(a / scale, r, rcond=None)
-    res = r - (a / scale) @ coef
-    dof = n - a.shape[1]
-    s2 = float(res @ res) / dof
-    cov = s2 * np.linalg.pinv((a / scale).T @ (a / scale))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rho = float(np.corrcoef(res[:-1], res[1:])[0, 1])
-    rho = float(np.clip(rho, 0.0, _MAX_RHO)) if np.isfinite(rho) else 0.0
-    widen = math.sqrt((1.0 + rho) / (1.0 - rho))
+    coef, cov, _, _ = widened_lstsq(np.column_stack(design), r)
     out = {}
     for j, v in enumerate(unknown):
         c = len(design) - len(unknown) + j
-        out[v] = (float(coef[c] / scale[c]), float(math.sqrt(cov[c, c]) / scale[c] * widen))
+        out[v] = (float(coef[c]), float(math.sqrt(cov[c, c])))
     return out
 
 
@@ -377,6 +338,18 @@ def _scaled(world_data, mapping, view, reference, foot, distance):
     return data
 
 
+def _merged_as_given(tracks, mappings, sync, world):
+    """The views merged as the run merged them: their scales measured on the shared X
+    and reconciled where it did that (:mod:`vidtrack.world.shared_x`)."""
+    from vidtrack.world.orthogonal import merge_tracks
+    from vidtrack.world.shared_x import merge_reconciled
+
+    shared = getattr(world, "shared_x", None)
+    if shared is None:
+        return merge_tracks(tracks, mappings, sync=sync)
+    return merge_reconciled(tracks, mappings, sync=sync, rel=shared.rel_uncertainty)
+
+
 def perspective_effect(scene, tracks, world, fit, *, cp, model="quadratic"):
     """The effect on k of the perspective left uncorrected, per view, and the notes.
 
@@ -409,7 +382,9 @@ def perspective_effect(scene, tracks, world, fit, *, cp, model="quadratic"):
     names = [v for v in ("front", "top") if v in tracks and v in scene.views]
     if len(names) != 2 or not all(v in getattr(world, "t0_s", {}) for v in names):
         return None
-    mappings = {n: scene.views[n].mapping() for n in names}
+    # as the world track was merged: the scales reconciled on the shared X where they were
+    given = {n: scene.views[n].mapping() for n in names}
+    mappings = world.mappings(given)
     unknown = [v for v in names if mappings[v].camera_distance_m is None]
     if not unknown:
         return None
@@ -464,9 +439,11 @@ def perspective_effect(scene, tracks, world, fit, *, cp, model="quadratic"):
                             plain.append(fit_throw(merge_tracks(tracks, mappings,
                                                                 sync=sync).data,
                                                    errors=False, near=fit, **fit_args))
-                        maps = dict(mappings)
-                        maps[v] = dataclasses.replace(mappings[v], camera_distance_m=distance)
-                        moved = fit_throw(merge_tracks(tracks, maps, sync=sync).data,
+                        # as a run with the distance given: from the scene's scales,
+                        # measured (and reconciled) again on the corrected shared X
+                        maps = dict(given)
+                        maps[v] = dataclasses.replace(given[v], camera_distance_m=distance)
+                        moved = fit_throw(_merged_as_given(tracks, maps, sync, world).data,
                                           errors=False, near=fit, **fit_args)
                     base = plain[0].coefficients
                     shift = {k: moved.coefficients[k].value - base[k].value for k in stderr

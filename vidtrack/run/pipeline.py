@@ -256,10 +256,16 @@ def _merged(scene, tracks):
         from vidtrack.run.calibrated import triangulate_scene
 
         return tracks, triangulate_scene(scene, tracks)
-    from vidtrack.world.orthogonal import merge_tracks
+    from vidtrack.world.shared_x import merge_reconciled
 
     mappings = {n: v.mapping() for n, v in scene.views.items()}
-    world = merge_tracks(tracks, mappings, sync={n: v.sync_frame for n, v in scene.views.items()})
+    # the views' scales measured on the shared X, reconciled where the rulers' stated
+    # uncertainty explains their ratio (vidtrack.world.shared_x)
+    world = merge_reconciled(tracks, mappings,
+                             sync={n: v.sync_frame for n, v in scene.views.items()},
+                             rel={n: v.scale_rel_uncertainty[0] for n, v in scene.views.items()},
+                             ruler_px={n: v.scale.span_px if v.ruler is not None and v.scale
+                                       else None for n, v in scene.views.items()})
     # the merge flags each view's frames before its t = 0 and carries the release over
     return world.tracks or tracks, world
 
@@ -419,6 +425,8 @@ def _cross_check(scene, tracks, world):
     for n, v in scene.views.items():
         if hasattr(v, "mapping"):
             mappings[n] = v.mapping()
+    if hasattr(world, "mappings"):          # the scales as merged (reconciled on X)
+        mappings = world.mappings(mappings)
     return cross_checks(world, tracks, mappings, g=scene.physics.gravity_m_s2,
                         sources={n: {"fps": getattr(v, "fps", None)}
                                  for n, v in scene.views.items()})
@@ -501,6 +509,11 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
             _note(f"{label}: {why}; fitting again")
     _remove_outputs(out_dir, stages, ("fit",), FIT_FILES)
     notes = list(plan.notes.get(folder, [])) + _accepted(findings, label)
+    shared = getattr(world, "shared_x", None)
+    if shared is not None and (shared.seen or not shared.reconciled):
+        # the views' relative scale: said when the data show it (or it was not reconciled)
+        _note(f"{label}: {shared.note()}")
+        notes.append(shared.note())
     if reused:      # said on stderr and kept in fit.json: the tracks are not new
         said = (f"tracks reused from {out_dir / 'tracks.h5'} (computed at "
                 f"{stages.at('tracks') or 'an earlier run'}, same scene, footage, tracker and "
@@ -522,7 +535,8 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
 
     t0 = time.perf_counter()
     try:
-        scale_part = scale_error(scene, tracks, fit, cp=cp, model=options.model)
+        scale_part = scale_error(scene, tracks, fit, cp=cp, model=options.model,
+                                 world=world)
     except ConvergenceError as exc:      # pragma: no cover (the refits catch their own)
         scale_part = None
         notes.append(f"the views' scales could not be carried into k: {exc}")

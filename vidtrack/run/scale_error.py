@@ -16,7 +16,11 @@ the calibration's standard error,
 
     sd_cal(k) = sqrt( sum_v (dk / d(ln s_v) * rel_v)^2 ),
 
-the views' scales independent. Measured against renders whose ruler was read off by a
+the views' scales independent. When the views' scales were reconciled on the shared X
+(:mod:`vidtrack.world.shared_x`) the refits start from the reconciled scales and the
+scales' errors are those left after the reconciliation, with their covariance P (the
+two scales wrong by nearly the same factor): ``sd_cal(k)^2 = g^T P g``, g the vector of
+dk / d(ln s_v). Measured against renders whose ruler was read off by a
 known amount (tests/test_scale_error.py): the k shift is what dk / d(ln s) predicts.
 
 Calibrated cameras (``[world]``) are not covered here: their calibration's covariance is
@@ -57,6 +61,8 @@ class ScaleError:
         Per coefficient, sd_cal(k); None where a refit failed (the notes say why).
     notes : tuple of str
         What was taken as exact, refits that failed.
+    shared : vidtrack.world.shared_x.SharedScale or None
+        The reconciliation on the shared X, when the views' scales were reconciled.
     """
 
     rel_uncertainty: dict
@@ -64,6 +70,7 @@ class ScaleError:
     sensitivity: dict
     stderr: dict
     notes: tuple = ()
+    shared: object = None
 
     def parts(self):
         """``{k: (stderr_calibration, scale_sensitivity)}`` for
@@ -72,11 +79,18 @@ class ScaleError:
 
     def to_dict(self):
         """fit.json's ``calibration``: per view its scale's uncertainty and source."""
-        return {"views": {v: {"scale_rel_uncertainty": self.rel_uncertainty[v],
-                              "from": self.how[v]} for v in self.rel_uncertainty},
-                "systematic": True,
+        views = {v: {"scale_rel_uncertainty": self.rel_uncertainty[v], "from": self.how[v]}
+                 for v in self.rel_uncertainty}
+        if self.shared is not None:
+            for v in views:
+                views[v]["scale_factor_reconciled"] = self.shared.factors[v]
+                views[v]["scale_rel_uncertainty_reconciled"] = self.shared.stderr_rel(v)
+        return {"views": views, "systematic": True,
+                "reconciled": self.shared is not None,
                 "method": "delta method: each view's scale moved by +- its relative "
-                          "uncertainty, the views merged and fitted again"}
+                          "uncertainty, the views merged and fitted again"
+                          + ("; the scales reconciled on the shared X, their errors' "
+                             "covariance after it" if self.shared is not None else "")}
 
 
 def _refit(tracks, mappings, sync, fit_args, near):
@@ -87,7 +101,7 @@ def _refit(tracks, mappings, sync, fit_args, near):
     return fit_throw(world.data, errors=False, near=near, **fit_args)
 
 
-def scale_error(scene, tracks, fit, *, cp, model="quadratic"):
+def scale_error(scene, tracks, fit, *, cp, model="quadratic", world=None):
     """The calibration's part of each determined k's error, from the views' scales.
 
     Parameters
@@ -102,6 +116,9 @@ def scale_error(scene, tracks, fit, *, cp, model="quadratic"):
         The drag parameter used, s/m.
     model : str
         The throw model used.
+    world : vidtrack.world.orthogonal.WorldTrack, optional
+        The world track fitted: its ``shared_x`` gives the reconciled scales and their
+        covariance (without it, the scene's scales, independent).
 
     Returns
     -------
@@ -115,6 +132,11 @@ def scale_error(scene, tracks, fit, *, cp, model="quadratic"):
         return None
     names = [n for n in scene.view_names if n in tracks]
     mappings = {n: scene.views[n].mapping() for n in names}
+    shared = getattr(world, "shared_x", None)
+    if shared is not None and shared.reconciled:
+        mappings = world.mappings(mappings)
+    else:
+        shared = None
     sync = {n: scene.views[n].sync_frame for n in names}
     fit_args = {"cp": cp, "g": scene.physics.gravity_m_s2, "v1": scene.v1_m_s, "model": model}
     rel, how, notes = {}, {}, []
@@ -158,8 +180,13 @@ def scale_error(scene, tracks, fit, *, cp, model="quadratic"):
         if any(rel[n] and n not in sens[k] for n in names):
             stderr[k] = None
             continue
+        if shared is not None:
+            g = [sens[k].get(v, 0.0) for v in (shared.reference, shared.other)]
+            var = sum(g[i] * g[j] * shared.covariance[i][j] for i in (0, 1) for j in (0, 1))
+            stderr[k] = float(max(var, 0.0) ** 0.5)
+            continue
         stderr[k] = float(sum((sens[k][n] * rel[n]) ** 2 for n in sens[k]) ** 0.5)
     for k in determined:
         log.debug("%s: calibration stderr %s, dk/d(ln s) %s", k, stderr[k], sens[k])
     return ScaleError(rel_uncertainty=rel, how=how, sensitivity=sens, stderr=stderr,
-                      notes=tuple(notes))
+                      notes=tuple(notes), shared=shared)

@@ -19,7 +19,10 @@ Layout (HDF5, written with h5py, whole or not at all)::
                              straw_level, scatter_px, notes (JSON)
     /world            datasets: t_s, x_m, y_m, z_m (float64, NaN where not measured)
                       attrs: kind ("orthogonal"), reference, t0_s (JSON), sync (JSON),
-                             x_rms_m, x_rms_px (NaN: not checked), x_points, warnings (JSON)
+                             x_rms_m, x_rms_px (NaN: not checked), x_points, warnings (JSON),
+                             shared_x (JSON, two views: the views' relative scale on the
+                             shared X and whether it was reconciled,
+                             vidtrack.world.shared_x.SharedScale)
 
 Calibrated cameras (a scene with ``[world]``): one group per view of any name (the root
 attribute ``views`` lists them in order); ``/world`` has kind "calibrated", the datasets
@@ -280,6 +283,8 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
                 g.attrs["x_rms_px"] = _num(world.x_rms_px)
                 g.attrs["x_points"] = int(world.x_points)
                 g.attrs["warnings"] = _json(list(world.warnings))
+                if getattr(world, "shared_x", None) is not None:
+                    g.attrs["shared_x"] = _json(world.shared_x.to_dict())
     with atomic_path(path) as tmp:
         tmp.write_bytes(buffer.getvalue())
     return path
@@ -319,6 +324,7 @@ def read_tracks(path):
     import h5py
 
     from vidtrack.world.orthogonal import WorldTrack, reference_frames
+    from vidtrack.world.shared_x import SharedScale
     from vidtrack.track.tracker import OPTIONAL_COLUMNS, TRACK_COLUMNS, Track
 
     path = Path(path)
@@ -391,7 +397,10 @@ def read_tracks(path):
                 x_rms_m=_none_if_nan(_attr(g, "x_rms_m", path, "/world")),
                 x_rms_px=_none_if_nan(_attr(g, "x_rms_px", path, "/world")),
                 x_points=int(_attr(g, "x_points", path, "/world")),
-                warnings=tuple(json.loads(_attr(g, "warnings", path, "/world"))))
+                warnings=tuple(json.loads(_attr(g, "warnings", path, "/world"))),
+                shared_x=(SharedScale.from_dict(json.loads(_attr(g, "shared_x", path,
+                                                                 "/world")))
+                          if "shared_x" in g.attrs else None))
         stored = h.attrs.get("views_sha256")
         if isinstance(stored, bytes):
             stored = stored.decode("utf-8")

@@ -96,6 +96,11 @@ class WorldTrack:
         PRE_RELEASE (and only those), the release carried over to a view that had none
         of its own (``release_t_s`` is then the view's t = 0). None when read back
         from a file.
+    shared_x : vidtrack.world.shared_x.SharedScale or None
+        The views' relative scale and offset measured on the shared X, and whether
+        their scales were reconciled (the world track is then merged with the moved
+        scales); None when not measured (:func:`vidtrack.world.shared_x.merge_reconciled`
+        measures it).
     """
 
     data: pd.DataFrame
@@ -107,6 +112,7 @@ class WorldTrack:
     x_points: int = 0
     warnings: tuple = ()
     tracks: dict | None = None
+    shared_x: object | None = None
 
     def __repr__(self):
         measured = "/".join(str(int(np.count_nonzero(np.isfinite(self.data[f"{a}_m"]))))
@@ -123,7 +129,16 @@ class WorldTrack:
                 "x_rms_px": self.x_rms_px, "x_points": int(self.x_points),
                 "measured": {a: int(np.count_nonzero(np.isfinite(self.data[f"{a}_m"])))
                              for a in _AXES},
-                "warnings": list(self.warnings)}
+                "warnings": list(self.warnings),
+                **({"shared_x": self.shared_x.to_dict()} if self.shared_x is not None
+                   else {})}
+
+    def mappings(self, mappings):
+        """The views' mappings as this world track was merged with: ``mappings`` (the
+        scene's) with the scales moved where the views were reconciled."""
+        if self.shared_x is None or not self.shared_x.reconciled:
+            return dict(mappings)
+        return self.shared_x.mappings(mappings)
 
 
 def view_world(track, mapping):
