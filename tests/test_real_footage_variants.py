@@ -8,7 +8,7 @@ short exposures), 0.4 times the contrast round mid-grey (haze, a flat picture pr
 every second frame (half the frame rate). The same object must come out: against the
 track of the unchanged clip mapped through the change (itself checked against the
 references made by others in ``test_real_footage.py``) and against those references.
-What is measured (this code, 2-core machine) is in docs/tracker.md.
+What is measured (this code, 2-core machine) is in each test's docstring.
 
 Skipped, saying why, where ``../shared`` is not beside the checkout.
 """

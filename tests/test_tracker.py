@@ -88,7 +88,7 @@ def test_centroid_rms_on_unflagged_frames(default_run, view, engine):
     # 1.4 px straw lies along a pixel row all through, where its pixels' own coverage
     # centroid is 0.043 px RMS from the silhouette's centre (a box-filtered strip 1.4 px
     # wide: up to 0.07 px as it moves across the row); the strip through the pixels' box
-    # fitted to them is not (0.075 px with the box blurred; docs/tracker.md). The flight
+    # fitted to them is not (0.075 px with the box blurred). The flight
     # tracker's bar: 0.023 px front, 0.054 px top (0.12 at most)
     assert np.sqrt(np.mean(err[ok] ** 2)) <= TRUTH_RMS[view]
     assert np.all(err[ok] < 0.3)

@@ -7,7 +7,7 @@ exact coverage (``rod_render``) and a truth the tracker never sees. Every unflag
 frame must be within 0.5 px of the truth.
 
 Measured before these checks (same scenes): 5 to 178 unflagged frames more than 0.5 px
-off, up to 2.8 px (docs/tracker.md).
+off, up to 2.8 px.
 """
 
 import numpy as np
@@ -96,7 +96,7 @@ def test_a_ball_held_where_the_background_is_taken_and_then_camouflaged(tmp_path
     tr, err, ok = _track(tmp_path, frames, truth, engine=engine)
     assert not ok[:HOLD].any()
     assert ok.sum() >= 30
-    # (one frame at 0.57 px: Limits in docs/tracker.md)
+    # (one frame at 0.57 px)
     assert np.percentile(err[ok], 95) <= 0.5
     assert np.all(err[ok] <= 0.6)
 

@@ -164,7 +164,7 @@ def test_toys_of_other_textures_are_measured_whole_or_flagged(tmp_path, seed):
     object (10: 21 unflagged frames 3.7-3.9 px off), a part of a third of the whole
     whose other part was never joined (14: every frame MERGED), a part taken until the
     whole was found (24: 19 MERGED). Each unflagged frame is the whole, within 1 px; the
-    flagged ones are the part's. (docs/tracker.md gives the figures of all 24.)"""
+    flagged ones are the part's."""
     n = 70
     frames, path = _toy(np.random.default_rng(seed), n, darkness=0.0, blur_px=0.0)
     tr = _track(tmp_path, frames)

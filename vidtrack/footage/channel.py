@@ -31,7 +31,7 @@ because what stands out more is not always followed better: on the bear drop und
 yellow balloon the pair shows whole in the chroma, one long object that the tracker
 takes for a rod and loses for 65 of 70 frames (the luma keeps 56 usable), while on the
 bear alone, before a grey wall, the chroma follows it 0.96 px RMS from the group's own
-track against 2.3 px in the luma (docs/tracker.md).
+track against 2.3 px in the luma.
 
 Grey footage (one channel, or three equal channels as some containers store grey) has
 no colour: ``"auto"`` reads it as luma, a colour channel is refused with a
