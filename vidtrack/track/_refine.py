@@ -31,7 +31,8 @@ import numpy as np
 from vidtrack.track._rods import (SHORT_PX, SHORT_SHARE, area_shrunk, end_hidden,
                                   hidden_side, rod_shortened)
 from vidtrack.track.background import MAD_TO_SIGMA
-from vidtrack.track.release import _knot_design, _knot_rss, find_release  # noqa: F401 (the rules tracker's, and its tests')
+# (the rules tracker's, and its tests')
+from vidtrack.track.release import _knot_design, _knot_rss, find_release  # noqa: F401
 
 
 def _quad_fit(t, p, t_eval):

@@ -58,11 +58,12 @@ MAX_DETECTIONS = 128
 #: background), the share of the weight brighter than the background, the 10th
 #: percentile of frame / background, the texture correlation, whether it is
 #: shadow-like, whether the background under it has texture (then a shadow-like
-#: detection has shown the texture kept, not only a dimming), whether it touches the frame's border, its contrast (the 90th percentile
-#: of its |difference|), its own grey level (NaN for an object of two polarities),
-#: whether it is of two polarities, and its body's level (of the polarity most of its
-#: pixels beyond ``k_grow`` show) where that lies on one side of the background under
-#: it (a dark ball with a highlight; NaN otherwise).
+#: detection has shown the texture kept, not only a dimming), whether it touches the
+#: frame's border, its contrast (the 90th percentile of its |difference|), its own
+#: grey level (NaN for an object of two polarities), whether it is of two polarities,
+#: and its body's level (of the polarity most of its pixels beyond ``k_grow`` show)
+#: where that lies on one side of the background under it (a dark ball with a
+#: highlight; NaN otherwise).
 DETECTION_DTYPE = np.dtype([("u", "f8"), ("v", "f8"), ("weight", "f8"), ("area", "i4"),
                             ("muu", "f8"), ("mvv", "f8"), ("muv", "f8"),
                             ("contrast", "f4"), ("bright_share", "f4"),

@@ -12,12 +12,13 @@ across the ellipse of centre ``(u, v)`` and angle ``theta``, ``A`` and ``B`` its
 semi-axes, ``a`` its coverage (1 for an opaque object) and ``s`` its blur (optics,
 motion; with the pixel's box). The semi-axes are not free: they follow from the
 object's spreads over its chain and the blur, so a part hidden (behind a post) or
-something touching the object is a misfit, not a smaller or larger ellipse. ``d`` is the distance from the outline to first order
-(exact at the outline, the only place where ``Phi`` is not 0 or 1). The ellipse's centre
-is a uniform ellipse's coverage centroid. The fit is robust (scipy's least squares, the
-soft-l1 loss at :data:`~vidtrack.track.rod.F_SCALE` of full coverage): what touches the
-object (a blade, a hand, its shadow), which the ellipse does not explain, weighs little,
-where a centroid weighs every pixel alike. Each residual may be weighed by how well its
+something touching the object is a misfit, not a smaller or larger ellipse. ``d`` is the
+distance from the outline to first order (exact at the outline, the only place where
+``Phi`` is not 0 or 1). The ellipse's centre is a uniform ellipse's coverage centroid.
+The fit is robust (scipy's least squares, the soft-l1 loss at
+:data:`~vidtrack.track.rod.F_SCALE` of full coverage): what touches the object (a
+blade, a hand, its shadow), which the ellipse does not explain, weighs little, where a
+centroid weighs every pixel alike. Each residual may be weighed by how well its
 pixel tells the coverage (the object's contrast against the wall there over its full
 contrast): a pixel over a patch of the wall of the object's own level tells little. With
 its spreads free, the fit measures the object's shape (in frames where it is seen whole).

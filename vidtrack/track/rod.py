@@ -1,15 +1,16 @@
 """A rod's image as a model: a blurred bar fitted to the pixels round it.
 
 The flight tracker measures an elongated object (a straw, a stick: its spread along at
-least :data:`vidtrack.track.measure.ELONGATED` times its spread across) by fitting
+least :data:`vidtrack.track.measure.ROD_ASPECT` times its spread across) by fitting
 
     c(x, y) = a * B(w, r, s) * B(h, q, s2),
     B(w, r, s) = G(w - r + 1/2) - G(w - r - 1/2) - G(-w - r + 1/2) + G(-w - r - 1/2),
     G(x) = s * (z Phi(z) + phi(z)),  z = x / s
 
 (a bar ``2w`` by ``2h`` blurred by a normal law and seen through the pixel's unit box:
-``G`` is the integral of the blurred step) to each pixel's coverage ``c`` (its difference from the background over the object's
-own contrast there, not clipped: noise stays unbiased), with ``q, r`` a pixel centre's
+``G`` is the integral of the blurred step) to each pixel's coverage ``c`` (its
+difference from the background over the object's own contrast there, not clipped: noise
+stays unbiased), with ``q, r`` a pixel centre's
 distance along and across the bar of centre ``(u, v)`` and angle ``theta``; ``h`` and
 ``w`` the bar's half length and half width, ``a`` its coverage (1 for an opaque rod),
 ``s`` its blur across (optics, the pixel), ``s2`` along (motion blur). The bar's centre

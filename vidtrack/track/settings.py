@@ -96,8 +96,8 @@ class TrackerSettings:
         round (2.7 px over a turn), a hand turning back, is explained in part.
     ambiguity_ratio : float
         Two chains seen at the same time whose flight scores, and whose signals (summed
-        weights), are within this ratio of each other (neither a shadow) are ambiguous: the tracker stops and names both, with the
-        ``target`` line that picks one.
+        weights), are within this ratio of each other (neither a shadow) are ambiguous:
+        the tracker stops and names both, with the ``target`` line that picks one.
     seeds_max : int
         At most this many tracklets (the longest travellers) seed chains (count).
     kernel_sigmas : float
@@ -109,7 +109,7 @@ class TrackerSettings:
         its kernel over all of it) that the appearance test divides by.
     k_flag : float
         Flagging: a frame is an outlier when its distance from the local path of its
-        neighbours exceeds ``k_flag`` times the chain's robust scatter (noise units), and
+        neighbours exceeds ``k_flag`` times the chain's robust scatter of such distances, and
         unlike the object when its size differs from that of its neighbours by more than
         ``k_flag`` times their robust scatter of log size.
     flag_floor_px : float
