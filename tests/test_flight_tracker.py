@@ -206,8 +206,11 @@ def test_a_glider_slowed_by_its_drag_is_not_taken_for_a_release(real_footage):
     frames 0-409): thrown fast, its drag slows it hard at first and then less, with no
     knot in its acceleration beside anything touching it. Before the release was a knot
     (a z-test of each frame's acceleration against the late flight's), frames 1-124 were
-    PRE_RELEASE and 69 % of the flight was kept; measured now 94 %, median 4.2 px from
-    the authors' marks (a spot on the glider, not its centre)."""
+    PRE_RELEASE and 69 % of the flight was kept. Over a cream wall of its own tones it
+    loses a quarter of its weight, its point still on its path: flagged for that alone
+    (``hidden``), 92 % was kept; kept where the clean frames round it predict it, 96 %
+    (the issue's 95 %), median 4.2 px from the authors' marks (a spot on the glider, not
+    its centre)."""
     from vidtrack.footage import open_source
     from vidtrack.track._flags import PRE_RELEASE
     from vidtrack.track.tracker import track
@@ -223,11 +226,38 @@ def test_a_glider_slowed_by_its_drag_is_not_taken_for_a_release(real_footage):
     fr = ref[1:, 0].astype(int)
     ok = tr.usable[fr]
     assert not np.any(d.loc[fr, "flags"].to_numpy() & PRE_RELEASE)
-    assert ok.mean() >= 0.9
+    assert ok.mean() >= 0.95
     err = np.hypot(d.loc[fr, "u_px"].to_numpy() - ref[1:, 2],
                    d.loc[fr, "v_px"].to_numpy() - ref[1:, 3])
     # (the student, hundreds of px away, is never followed)
     assert np.percentile(err[ok], 95) < 12.0
+
+
+def test_a_frame_only_suspect_is_kept_where_the_clean_frames_predict_it():
+    """Frames flagged only for their weight or size (part hidden?) are kept where the
+    clean frames round them, every suspect frame left out, predict them within
+    ``k_flag`` scatters: on an exact parabola with noise of 0.05 px, a suspect frame on
+    it is kept; a run of suspect frames moved alike 0.5 px off it (a part hidden at one
+    side moves the point so), which would predict each other, is not; nor a suspect
+    frame beyond the clean frames' reach (its prediction's variance over
+    PREDICTION_H_MAX points')."""
+    from vidtrack.track.flag import _on_clean_path
+
+    rng = np.random.default_rng(4)
+    idx = np.arange(60)
+    t = idx.astype(float)
+    uv = np.column_stack([10.0 + 2.0 * t, 50.0 - 1.0 * t + 0.02 * t * t])
+    uv += rng.normal(0.0, 0.05, uv.shape)
+    suspect = np.zeros(60, bool)
+    suspect[[12, 13, 30, 31, 32, 33, 34]] = True
+    uv[30:35, 1] += 0.5                          # moved alike: part hidden at one side
+    clean = ~suspect
+    clean[45:] = False                           # nothing clean beyond frame 44 ...
+    suspect[52] = True                           # ... so frame 52 cannot be tested
+    kept = _on_clean_path(idx, uv, suspect, clean, 0.05, TrackerSettings())
+    assert kept[[12, 13]].all()
+    assert not kept[30:35].any() and not kept[52]
+    assert not kept[~suspect].any()
 
 
 def test_a_shuttlecock_before_a_crowd_is_kept_among_its_detections(real_footage):

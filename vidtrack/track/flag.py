@@ -15,7 +15,7 @@ Against the chain's own clean frames, two tests with one threshold, ``k_flag``:
   its shape's fit (its coverage) short of its neighbours' within four times
   ``path_window`` (scatter at least ``weight_floor``: part of it hidden); and the share
   of its weight that the fit left out (:mod:`vidtrack.track.measure`) against the
-  chain's, over its robust scatter (at least ``size_floor``): beyond ``k_flag``
+  chain's, over its robust scatter (at least ``residual_floor``): beyond ``k_flag``
   (grown or shrunk at a stroke: something touching, part hidden), APPEARANCE; so is a
   shadow-like detection (:mod:`vidtrack.track.detect`) in a chain that is not one. A
   rod's frames measured by its bar (:mod:`vidtrack.track.rod`) are judged by the bar
@@ -23,7 +23,11 @@ Against the chain's own clean frames, two tests with one threshold, ``k_flag``:
   weight, each against the local quadratic in time through its neighbours' (a rod
   turning end on shrinks smoothly: it is followed, where a median of the neighbours
   lags it), its misfit over its footprint for the residual. Something beside the rod,
-  even joined to its detection, does not touch the bar; something over it does.
+  even joined to its detection, does not touch the bar; something over it does. A
+  frame only short of weight or size (``hidden``) is suspect, not wrong: where the
+  clean frames round it, every such frame left out, predict it within ``k_flag`` of
+  their scatter (:func:`_on_clean_path`), it is kept (a white glider over a cream wall
+  of its own tones loses a quarter of its weight, its point still on its path).
 
 A detection touching the frame's border is BORDER; frames inside the chain's span
 without a detection are LOST, and so are the frames at either end of the chain that the
@@ -188,6 +192,24 @@ def _path_outliers(idx, uv, settings, start):
     return ~ok, scatter
 
 
+def _on_clean_path(idx, uv, suspect, clean, scatter, settings):
+    """The ``suspect`` frames (positions in ``idx``) that the ``clean`` frames' local
+    path predicts: each predicted from the clean frames alone (every suspect frame left
+    out, so frames moved alike do not predict each other), from near enough (variance
+    at most :data:`PREDICTION_H_MAX` times a point's), within ``k_flag`` times the
+    clean frames' ``scatter`` (studentized, no floor: a suspect frame gets no
+    tolerance beyond the path's own)."""
+    out = np.zeros(idx.size, bool)
+    if not suspect.any() or np.count_nonzero(clean) < 3 or not np.isfinite(scatter):
+        return out
+    pred, _acc, h, _ha = local_quadratic(idx, uv, settings.path_window,
+                                         weights=clean.astype(float), leverage=True)
+    with np.errstate(invalid="ignore"):
+        res = np.hypot(*(pred - uv).T) / np.sqrt(1.0 + h)
+        out = suspect & (h <= PREDICTION_H_MAX) & (res <= settings.k_flag * scatter)
+    return out
+
+
 def _end_runs(mask):
     """The leading and the trailing runs of True of ``mask`` (all of it where it is all
     True)."""
@@ -336,6 +358,12 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     reasons["merged"][idx[crossed]] = True
     off, scatter = _path_outliers(idx, uv, settings, ~grown & ~crossed)
     flags[idx[off]] |= OUTLIER
+    # (a frame only short of weight or size is suspect, not wrong: where the clean
+    # frames round it predict it, it is kept)
+    unhid = _on_clean_path(idx, uv, hidden & ~touched & ~crossed & ~off,
+                           ~grown & ~crossed & ~off, scatter, settings)
+    flags[idx[unhid]] &= ~APPEARANCE
+    hidden &= ~unhid
     # (the chain's ends off its path, in view: what the chain took where the object was
     # not seen, a hand before the throw, a racket after a hit, is not the object)
     astray = _end_runs(off & ((flags[idx] & BORDER) == 0))
