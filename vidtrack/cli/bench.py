@@ -71,7 +71,7 @@ def add_arguments(parser):
                              "THROWS synthetic throws (the sample run's geometry and "
                              "tracker errors; scenes exact and read by eye; the views' "
                              "scales independent and reconciled on the shared X), e.g. "
-                             "--coverage 200 (about 4 s of CPU a throw)")
+                             "--coverage 200 (about 3 s of CPU a throw with one BLAS thread)")
     parser.add_argument("--repeats", type=int, default=3, metavar="N",
                         help="counted calls of each timed method, after the warm-up "
                              "(default 3; 1 allowed; track: trackpy and the OpenCV tracker "
