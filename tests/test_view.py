@@ -497,3 +497,21 @@ def test_command_serves_on_loopback_and_stops_on_ctrl_c(tmp_path):
     assert code == 0, err
     assert set(state["views"]) == {"front", "top"} and state["views"]["front"]["frames"] == 372
     assert 'id="frame"' in page
+
+
+def test_a_fit_of_another_scene_names_the_throws_own_file_where_it_has_one(tmp_path):
+    """The page's note on tracks that no longer match the scene names the file that can
+    have changed: scene.toml, and a throw's throw.toml where the throw has one."""
+    from vidtrack.run.overlay_run import stale_reason
+    from vidtrack.scene import load_scene
+
+    scene = load_scene(REPO / "datasets" / "run42")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "tracks.h5").write_bytes(b"")
+    (out / "fit.json").write_text(json.dumps({"scene_hash": "another", "coefficients": {}}))
+    throw = tmp_path / "02"
+    throw.mkdir()
+    assert stale_reason(scene, throw, out) == "scene.toml changed since the fit"
+    (throw / "throw.toml").write_text("schema = 1\n")
+    assert stale_reason(scene, throw, out) == "scene.toml or throw.toml changed since the fit"

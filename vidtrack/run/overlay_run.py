@@ -33,6 +33,7 @@ def stale_reason(scene, folder, out_dir):
     from vidtrack import __version__
     from vidtrack.run._workers import source_of
     from vidtrack.run.cache import Stages
+    from vidtrack.scene.throw_file import THROW_FILE
 
     out_dir = Path(out_dir)
     h5 = out_dir / "tracks.h5"
@@ -42,7 +43,8 @@ def stale_reason(scene, folder, out_dir):
     if record is None:
         return "there is no fit.json"
     if record.get("scene_hash") != scene.hash:
-        return "scene.toml changed since the fit"
+        own = (Path(folder) / THROW_FILE).is_file()
+        return f"scene.toml{' or throw.toml' if own else ''} changed since the fit"
     if record.get("vidtrack_version") != __version__:
         return (f"the fit was made by vidtrack {record.get('vidtrack_version')}, this is "
                 f"{__version__}")
