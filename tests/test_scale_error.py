@@ -155,10 +155,11 @@ def coverage(seeds=4, readings=10, sigma_px=0.5, rng_seed=0,
 
 @pytest.mark.slow
 def test_the_total_interval_covers_the_truth_with_rulers_read_by_eye():
-    n, cov = coverage(seeds=4, readings=10)
+    n, cov = coverage(seeds=2, readings=10)
     print(n, cov)
     for k in K:
-        # 40 throws: 95 % nominal, binomial spread about 3.5 %
+        # 20 throws: 95 % nominal, binomial spread about 5 % (the interval's coverage
+        # over 200 throws is `vidtrack bench fit --coverage`'s)
         assert cov["total"][k] >= 0.85, (k, cov)
     # the fit's own interval alone misses most of the scale's effect
     assert min(cov["fit"][k] for k in ("k1", "k2", "k4")) < 0.5, cov
