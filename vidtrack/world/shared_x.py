@@ -419,7 +419,7 @@ def merge_reconciled(tracks, mappings, *, sync=None, rel, ruler_px=None):
         d_a, h_a, d_b = d_b, h_b, d_b - h_b * (d_b - d_a) / (h_b - h_a)
     if best is None:                    # the moved merge failed: as given
         return replace(world, shared_x=first)
-    _, d, est, world, factors, maps = best
+    _, d, est, moved, factors, maps = best
     shifts, cov, s = _update(d, est[1], sig)
     shared = replace(first, ratio=math.exp(d), ratio_se=est[1] * math.exp(d),
                      offset_m=est[2], offset_se_m=est[3], rho=est[4], points=est[5],
@@ -427,8 +427,9 @@ def merge_reconciled(tracks, mappings, *, sync=None, rel, ruler_px=None):
                      reconciled=abs(d) <= RECONCILE_Z * math.sqrt(s), factors=factors,
                      covariance=tuple(tuple(float(x) for x in r) for r in cov),
                      passes=passes)
-    if not shared.reconciled:           # the refined ratio left the bound: as given
-        world = merge_tracks(tracks, mappings, sync=sync)
+    if shared.reconciled:
+        world = moved
+    else:                               # the refined ratio left the bound: as given
         shared = replace(shared, factors={v: 1.0 for v in shared.factors},
                          covariance=((sig[0] ** 2, 0.0), (0.0, sig[1] ** 2)))
     log.info("world track: %s", shared.note())
