@@ -81,7 +81,7 @@ def _stages(run):
         findings = _cross_check(scene, tracks, world)
         fit = fit_throw(world.data, cp, g=scene.physics.gravity_m_s2, v1=scene.v1_m_s,
                         model="quadratic", bootstrap=0, rng=np.random.default_rng(0))
-        scale_part = scale_error(scene, tracks, fit, cp=cp, model="quadratic")
+        scale_part = scale_error(scene, tracks, fit, cp=cp, model="quadratic", world=world)
         fit = fit.with_calibration(scale_part.parts())
         effect = perspective_effect(scene, tracks, world, fit, cp=cp, model="quadratic")
         notes = list(scale_part.notes) + list(effect.notes if effect else ())
