@@ -34,6 +34,7 @@ from vidtrack.track.detect import Detector
 from vidtrack.track.flag import REASON_COLUMN, bridge_gaps, judge, reason_codes
 from vidtrack.track.joined import follow_back
 from vidtrack.track.link import link
+from vidtrack.track.matte import MATTE_FRAMES, fit_sample
 from vidtrack.track.measure import (BAR_COLUMNS, bar_moments, beside_its_shadow,
                                     chain_shape, fit_shape, has_highlight, is_rod,
                                     measure_frame, moment_axes, SHAPE_FRAMES)
@@ -57,6 +58,9 @@ MINOR_FLOOR_PX = 0.5
 #: At most this many times the view is tracked again against a background taken without
 #: the object (the second places the object where it stood by the chain the first found).
 AGAIN_MAX = 2
+
+#: Fewest frames of a compact object's chain its matte is fitted over.
+MATTE_MIN_FRAMES = 8
 
 _TOP_NOTE = ("release: not looked for in the top view (it sees the rotor's plane edge-on); "
              "the front view's is carried over")
@@ -241,6 +245,44 @@ def _measure(source, held, detector, detections, chain, shape, settings, cancel,
     return moments, residual, bars, shaded
 
 
+def _by_matte(source, held, steady, chain, shape, bg, noise, settings, cancel):
+    """A compact object's points measured by its matte (:mod:`vidtrack.track.matte`)
+    where it explains the object to ``matte_misfit_max`` noises and better than its
+    outline by ``matte_gain_min``; the chain's positions are replaced. Returns the note,
+    or None (the points kept)."""
+    idx = np.flatnonzero(chain.explained)
+    if idx.size == 0:
+        idx = chain.frames
+    idx = idx[np.isfinite(chain.u[idx]) & np.isfinite(chain.v[idx])]
+    if idx.size < MATTE_MIN_FRAMES:
+        return None
+    sample = _spread(idx, MATTE_FRAMES)
+    placer = fit_sample(_getter(source, held, steady), sample, chain.u, chain.v, bg, noise,
+                        shape.major, settings.shadow_ratio_min)
+    if not (placer.misfit <= settings.matte_misfit_max
+            and placer.gain >= settings.matte_gain_min):
+        return None
+    want = chain.frames[np.isfinite(chain.u[chain.frames]) & np.isfinite(chain.v[chain.frames])]
+    wanted = set(int(i) for i in want)
+    frames = held if held is not None else _steadied(_frames(source, cancel), steady)
+    for i, frame in enumerate(frames):
+        if i in wanted:
+            chain.u[i], chain.v[i] = placer.place(frame, bg, chain.u[i], chain.v[i])
+        if i >= want[-1]:
+            break
+    du, dv = placer.matte.centre + placer.offset
+    return (f"matte: measured by its own appearance over the walls it crosses (fitted over "
+            f"{sample.size} frames to {placer.misfit:.2f} noises, {placer.gain:.2f} times "
+            f"better than the outline's points, which it moves by ({du:+.2f}, {dv:+.2f}) "
+            f"px on average)")
+
+
+def _spread(idx, most):
+    """At most ``most`` of the frame positions ``idx``, spread evenly over them."""
+    return idx[np.unique(np.linspace(0, idx.size - 1, min(most, idx.size))
+                         .round().astype(int))]
+
+
 def _model_shape(get, detections, chain, shape, detector, settings):
     """The object's shape measured by its model (:func:`vidtrack.track.measure.fit_shape`)
     over up to :data:`~vidtrack.track.measure.SHAPE_FRAMES` of the frames its flight
@@ -252,8 +294,7 @@ def _model_shape(get, detections, chain, shape, detector, settings):
     idx = np.array([i for i in idx if not detections[i][chain.pick[i]]["mixed"]], int)
     if idx.size == 0:
         return shape
-    take = idx[np.unique(np.linspace(0, idx.size - 1, min(SHAPE_FRAMES, idx.size))
-                         .round().astype(int))]
+    take = _spread(idx, SHAPE_FRAMES)
     found = fit_shape([get(int(i)) for i in take],
                       [detections[i][chain.pick[i]] for i in take], shape, detector.bg,
                       detector.sigma, settings, shadow_test=detector.shadow_test)
@@ -425,6 +466,8 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     follow = rod and view != "top"
     moments, residual, bars, shaded = _measure(source, held, detector, detections, chain,
                                                shape, settings, cancel, steady)
+    matte_note = None if rod else _by_matte(source, held, steady, chain, shape, detector.bg,
+                                            float(background.noise_sigma), settings, cancel)
     get = (held.__getitem__ if held is not None
            else _frames_before(source, steady, settings.release_window))
     followed = (follow_back(get, detections, chain, bars, detector, shape, settings)
@@ -438,6 +481,8 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
                                            joined=followed, held=over_held)
     if again_note:
         notes.insert(0, again_note)
+    if matte_note:
+        notes.append(matte_note)
     if over_held.size:
         notes.append(f"background: it lay where it is in {over_held.size} frames, over "
                      f"pixels that no frame the background was taken from shows without "

@@ -16,7 +16,7 @@ from vidtrack.errors import VidtrackError
 __all__ = ["TrackerSettings", "ALGORITHM_VERSION"]
 
 #: Changes whenever the flight tracker's results may change for the same settings.
-ALGORITHM_VERSION = "flight-15"
+ALGORITHM_VERSION = "flight-16"
 
 
 @dataclass(frozen=True)
@@ -211,6 +211,18 @@ class TrackerSettings:
     rest_scatters : float
         ... and their tolerance in the chain's robust scatters about its path (noise
         units); their straight line in time must move less than half the tolerance.
+    matte_misfit_max : float
+        A compact object is measured by its matte (:mod:`vidtrack.track.matte`) only
+        where the matte explains its frames at its own shifts to within this many
+        pixel noises (the median RMS residual over the object's region): the synthetic
+        textured toys 0.97-1.02; a tumbling 4 px object 3.2, balls whose shadow moves
+        under them 2.7-2.9 (noise units).
+    matte_gain_min : float
+        ... and where it explains them at least this many times better (the median ratio
+        of RMS residuals over the object's region) at its own shifts than at the
+        outline's points: the textured toys 2.2-4.1 (the matte within 0.25 px of their
+        centres, the outline 0.8-6.7 px off); balls 0.98-1.03 and every real clip
+        1.01-1.04, where the outline is as near the truth or nearer.
     """
 
     k_sigma: float = 5.0
@@ -258,6 +270,8 @@ class TrackerSettings:
     rest_frames: int = 5
     rest_px: float = 0.25
     rest_scatters: float = 4.0
+    matte_misfit_max: float = 1.5
+    matte_gain_min: float = 1.5
 
     def __post_init__(self):
         for f in fields(self):
