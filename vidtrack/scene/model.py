@@ -250,6 +250,9 @@ class ViewSpec:
     m_per_px_rel_uncertainty : float or None
         The stated relative standard uncertainty of a scale given directly
         (``m_per_px``, or a calibration file's ``[scale]``); None: not stated.
+    points : None
+        Always None: an orthogonal view is tracked from its footage (a calibrated view,
+        :class:`vidtrack.scene.cameras.CameraView`, may give points digitized elsewhere).
     """
 
     name: str
@@ -273,6 +276,7 @@ class ViewSpec:
     manual_points: Path | None = None
     manual_points_text: str | None = None
     m_per_px_rel_uncertainty: float | None = None
+    points: None = None
 
     @property
     def scale_rel_uncertainty(self):
