@@ -196,9 +196,12 @@ def _track_views(scene, folder, options, timings, workers, *, label_of=lambda vi
             other if keep and options.report else None)
 
 
-def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
+def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, corrections, *,
                   label_of=lambda view: None):
     """Tracks and the world track: reused from tracks.h5 when nothing changed.
+
+    ``corrections``: each view's corrections as the preflight read them
+    (:attr:`vidtrack.run.preflight.RunPlan.corrections` of ``folder``).
 
     Writes tracks.h5 and, beside it, tracks.csv and world.csv (the same numbers), and
     records them in ``stages`` (:class:`vidtrack.run.cache.Stages`). Before tracking
@@ -218,7 +221,7 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
                     inputs={"scene": scene.hash,
                             "sources": {n: _file_fingerprint(source_of(v, scene, folder))
                                         for n, v in scene.views.items()},
-                            "corrections": corrections_key(scene, folder)})
+                            "corrections": corrections_key(scene, folder, corrections)})
     h5 = out_dir / "tracks.h5"
     if not options.force:
         reused = _reused_tracks(scene, out_dir, key, stages, timings, label_of(None))
@@ -235,7 +238,7 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
                                   label_of=label_of)
     # the scene's exclude_frames and manual_points, before the reconstruction
     with about(label_of(None)):
-        tracks = correct_tracks(scene, folder, tracks)
+        tracks = correct_tracks(tracks, corrections)
     t0 = time.perf_counter()
     world = reconstruct(scene, tracks)
     tracks = world.tracks
@@ -390,9 +393,10 @@ def fit_throw_folder(scene, folder, out_dir, options, workers=None, *, plan=None
         plan = RunPlan(scene=scene, out=out_dir, throws=[])
         with about(plan.label(folder)):
             scene = plan.scene_of(folder)                # a throw's own throw.toml
-            found, notes = _check_folder_sources(scene, folder,
-                                                 lambda v: plan.label(folder, v))
+            found, notes, corrections = _check_folder_sources(
+                scene, folder, lambda v: plan.label(folder, v))
             plan.findings[folder], plan.notes[folder] = found, notes
+            plan.corrections[folder] = corrections
             _refuse(found, options)
             check_output_folder(out_dir, RUN_OUTPUTS, plan.label(folder))
     label = plan.label(folder)
@@ -448,7 +452,7 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
     timings = {}
     t_start = time.perf_counter()
     tracks_key, tracks, world, reused, helper = _tracks_stage(
-        scene, folder, out_dir, options, timings, stages, workers,
+        scene, folder, out_dir, options, timings, stages, workers, plan.corrections[folder],
         label_of=lambda view: plan.label(folder, view) if view else label)
     findings = list(plan.findings.get(folder, [])) + _cross_check(scene, tracks, world)
     if findings and not options.accept_disagreement:
