@@ -9,6 +9,7 @@ from calibration.projective import ProjectiveCamera
 from vidtrack.run.dltdv_export import write_dltdv
 from vidtrack.track.digitized import read_points
 from vidtrack.world.calibrated import triangulate_views
+from vidtrack.world.world_track import WorldTrack
 
 
 def test_round_trip_through_dltdv_files(shared_dir, tmp_path):
@@ -49,8 +50,10 @@ def test_tracked_pixels_are_flipped_for_a_bottom_left_camera(tmp_path):
                straw_level=200.0, scatter_px=0.1)
     cam = ProjectiveCamera.from_dlt([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0.1],
                                     pixel_origin="bottom-left")
-    world = pd.DataFrame({"t_s": [0.0], "x_m": [1.0], "y_m": [2.0], "z_m": [3.0]})
-    write_dltdv(tmp_path, {"a": tr}, type("W", (), {"data": world})(), cameras={"a": cam})
+    world = WorldTrack(data=pd.DataFrame({"frame": [0], "t_s": [0.0], "x_m": [1.0],
+                                          "y_m": [2.0], "z_m": [3.0]}),
+                       t0_s={"a": 0.0}, sync={"a": "sync_frame 0"}, reference="a")
+    write_dltdv(tmp_path, {"a": tr}, world, cameras={"a": cam})
     xy = pd.read_csv(tmp_path / "xypts.csv")
     assert xy["pt1_cam1_Y"].tolist() == pytest.approx([380.0, 390.0])
     assert pd.read_csv(tmp_path / "xyzpts.csv").iloc[0].tolist() == [1.0, 2.0, 3.0]

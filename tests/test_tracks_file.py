@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from vidtrack import __version__
 from vidtrack.errors import TrackError
-from vidtrack.world.orthogonal import WorldTrack
+from vidtrack.world.world_track import WorldTrack
 from vidtrack.track.tracker import TRACK_COLUMNS, Track
 from vidtrack.run.tracks_file import read_tracks, write_tracks
 

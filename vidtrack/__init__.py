@@ -7,7 +7,8 @@ data, each importing only those before it (docs/architecture.md):
 - ``vidtrack.footage``: frame sources (videos, image folders, Phantom .cine), the time
   base, frame export;
 - ``vidtrack.track``: one view's footage to a per-frame ``Track``;
-- ``vidtrack.world``: the views to a ``WorldTrack`` in metres (the orthogonal merge);
+- ``vidtrack.world``: the views to a ``WorldTrack`` in metres (the orthogonal merge or
+  the triangulation of calibrated cameras);
 - ``vidtrack.report``: the run page and the ANOVA page;
 - ``vidtrack.run``: ``fit_run``/``fit_runs`` (what ``vidtrack fit`` runs), the stage cache,
   tracks.h5 and fit.json;

@@ -214,7 +214,9 @@ def _calibrated_plot(world):
     ax_err.set_xlabel("frame")
     ax_err.set_ylabel("px")
     ax_err.legend(fontsize=8)
-    raw = np.asarray(world[["X_m", "Y_m", "Z_m"]], dtype=float) if "X_m" in world else None
+    # world: a DataFrame, or its columns as a dict (drawn in the worker process)
+    raw = (np.column_stack([np.asarray(world[c], dtype=float) for c in ("X_m", "Y_m", "Z_m")])
+           if "X_m" in world else None)
     for ax, (a, b) in ((ax_side, ("x_m", "y_m")), (ax_plan, ("x_m", "z_m"))):
         u, v = np.asarray(world[a]), np.asarray(world[b])
         ax.plot(u, v, ".", ms=3)

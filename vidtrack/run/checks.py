@@ -11,7 +11,7 @@ accepted it (``vidtrack fit --accept-disagreement``). The limits below were set 
 the values measured on good runs, with a wide margin (docs/fit-outputs.md, "Cross-checks").
 
 - **The shared X** (:data:`X_RMS_MAX_PX`): both views see world X; on the common clock
-  their RMS difference (:attr:`vidtrack.world.orthogonal.WorldTrack.x_rms_px`, in pixels
+  their RMS difference (:attr:`vidtrack.world.world_track.WorldTrack.x_rms_px`, in pixels
   of the coarser view) must stay below a pixel.
 - **The speed along X** (:data:`SPEED_RATIO_TOL`): over the stretch of X both views
   saw, each view's mean speed along X from its own clock (frames / fps) and scale: the
@@ -179,11 +179,11 @@ def speed_ratio(world, tracks, mappings):
         short or too thinly sampled to judge.
     """
     names = [v for v in ("front", "top") if v in tracks and v in mappings]
-    if len(names) != 2 or world is None or not getattr(world, "t0_s", None):
+    if len(names) != 2 or world is None or not world.t0_s:
         return None
     if any(v not in world.t0_s for v in names):
         return None
-    reference = getattr(world, "reference", None)
+    reference = world.reference
     tx = _views_x(tracks, mappings, world.t0_s, names)
     if any(t.size < _SPEED_MIN_POINTS for t, _ in tx.values()):
         return None
@@ -265,7 +265,7 @@ def mean_accelerations(world):
 
 def _shared_x_said(world):
     """What the views' relative scale on the shared X says (empty when not measured)."""
-    shared = getattr(world, "shared_x", None)
+    shared = world.shared_x
     return "" if shared is None else f"; {shared.note()}"
 
 
@@ -274,7 +274,7 @@ def cross_checks(world, tracks, mappings, *, g=9.80665, sources=None):
 
     Parameters
     ----------
-    world : vidtrack.world.orthogonal.WorldTrack
+    world : vidtrack.world.world_track.WorldTrack
         The world track (fresh from the merge or read back from tracks.h5).
     tracks : dict of str to vidtrack.track.tracker.Track
         The views' tracks as merged (pre-release frames flagged).
@@ -292,7 +292,7 @@ def cross_checks(world, tracks, mappings, *, g=9.80665, sources=None):
     found = []
     sources = sources or {}
     names = [v for v in ("front", "top") if v in tracks]
-    x_rms_px = getattr(world, "x_rms_px", None)      # the orthogonal merge's measure
+    x_rms_px = world.x_rms_px       # the orthogonal merge's measure (None: calibrated)
     if x_rms_px is not None and x_rms_px > X_RMS_MAX_PX:
         found.append(Finding(
             "x_disagreement",

@@ -42,7 +42,7 @@ def write_dltdv(folder, tracks, world, *, cameras=None):
     folder : str or os.PathLike
     tracks : dict of str to vidtrack.track.tracker.Track
         The views in camera order.
-    world : WorldTrack or CalibratedWorld
+    world : vidtrack.world.world_track.WorldTrack
     cameras : dict of str to calibration.projective.ProjectiveCamera, optional
         Calibrated views' cameras: their pixels are written in the camera's convention
         (tracked footage's rows flipped for a bottom-left camera).
@@ -69,7 +69,7 @@ def write_dltdv(folder, tracks, world, *, cameras=None):
         table[f"pt1_cam{c}_Y"] = uv[:, 1]
     written = [_write(folder / XYPTS_CSV, pd.DataFrame(table))]
     d = world.data
-    if "X_m" in d:          # calibrated: the calibration's frame, flagged rows left out
+    if world.calibrated:    # the calibration's frame, flagged rows left out
         keep = d["flags"].to_numpy() == 0
         xyz = np.where(keep[:, None], d[["X_m", "Y_m", "Z_m"]].to_numpy(float), np.nan)
     else:

@@ -344,7 +344,7 @@ def _merged_as_given(tracks, mappings, sync, world):
     from vidtrack.world.orthogonal import merge_tracks
     from vidtrack.world.shared_x import merge_reconciled
 
-    shared = getattr(world, "shared_x", None)
+    shared = world.shared_x
     if shared is None:
         return merge_tracks(tracks, mappings, sync=sync)
     return merge_reconciled(tracks, mappings, sync=sync, rel=shared.rel_uncertainty)
@@ -358,7 +358,7 @@ def perspective_effect(scene, tracks, world, fit, *, cp, model="quadratic"):
     scene : vidtrack.scene.Scene
     tracks : dict of str to vidtrack.track.tracker.Track
         The views' tracks as merged.
-    world : vidtrack.world.orthogonal.WorldTrack
+    world : vidtrack.world.world_track.WorldTrack
         The world track fitted.
     fit : fits.lsq.ThrowFit
         Its fit, with the calibration's part of the errors when known.
@@ -380,7 +380,7 @@ def perspective_effect(scene, tracks, world, fit, *, cp, model="quadratic"):
     if scene.calibrated:
         return None
     names = [v for v in ("front", "top") if v in tracks and v in scene.views]
-    if len(names) != 2 or not all(v in getattr(world, "t0_s", {}) for v in names):
+    if len(names) != 2 or not all(v in world.t0_s for v in names):
         return None
     # as the world track was merged: the scales reconciled on the shared X where they were
     given = {n: scene.views[n].mapping() for n in names}

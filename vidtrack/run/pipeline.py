@@ -129,9 +129,11 @@ def _whole_or_none(out_dir, files):
 
 
 def _track_views(scene, folder, options, timings, workers, *, label_of=lambda view: None):
-    """Track every view of the scene in ``folder``.
+    """Track every view of the scene in ``folder`` (a view that gives points digitized
+    elsewhere is read instead, before any footage is tracked: a bad points file stops
+    the run first; :mod:`vidtrack.run.view_points`).
 
-    With two views and ``options.threads`` above 1 the view with the larger footage is
+    With two views to track and ``options.threads`` above 1 the view with the larger footage is
     tracked beside the other (:mod:`vidtrack.run._workers`): in a process of its own
     when ``options.view_process`` (the command line), else in a thread. If the view
     tracked here fails (or Ctrl-C), the other is stopped before the error goes on; if
@@ -147,9 +149,15 @@ def _track_views(scene, folder, options, timings, workers, *, label_of=lambda vi
     (dict, ViewProcess or None)
         {view: Track}, and the worker process when it is to draw this report.
     """
-    names = list(scene.view_names)
+    from vidtrack.run.view_points import points_track
+
     t0 = time.perf_counter()
     tracks = {}
+    for name in scene.view_names:
+        if scene.views[name].points is not None:
+            with about(label_of(name), view=name):
+                tracks[name] = points_track(scene, folder, name)
+    names = [n for n in scene.view_names if n not in tracks]
     threads = options.threads or min(len(names), os.cpu_count() or 1)
     other, keep = None, False
     if threads > 1 and len(names) > 1:
@@ -188,9 +196,12 @@ def _track_views(scene, folder, options, timings, workers, *, label_of=lambda vi
             other if keep and options.report else None)
 
 
-def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
+def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, corrections, *,
                   label_of=lambda view: None):
     """Tracks and the world track: reused from tracks.h5 when nothing changed.
+
+    ``corrections``: each view's corrections as the preflight read them
+    (:attr:`vidtrack.run.preflight.RunPlan.corrections` of ``folder``).
 
     Writes tracks.h5 and, beside it, tracks.csv and world.csv (the same numbers), and
     records them in ``stages`` (:class:`vidtrack.run.cache.Stages`). Before tracking
@@ -210,7 +221,7 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
                     inputs={"scene": scene.hash,
                             "sources": {n: _file_fingerprint(source_of(v, scene, folder))
                                         for n, v in scene.views.items()},
-                            "corrections": corrections_key(scene, folder)})
+                            "corrections": corrections_key(scene, folder, corrections)})
     h5 = out_dir / "tracks.h5"
     if not options.force:
         reused = _reused_tracks(scene, out_dir, key, stages, timings, label_of(None))
@@ -220,54 +231,26 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, *,
     _remove_outputs(out_dir, stages, ("tracks", "fit"), TRACKS_FILES + FIT_FILES)
     from vidtrack.run.tracks_file import write_tracks
 
-    if scene.calibrated:     # cameras at any angle: triangulated (vidtrack.run.calibrated)
-        from vidtrack.run.calibrated import calibrated_tracks
+    from vidtrack.run.corrections import correct_tracks
+    from vidtrack.run.reconstruct import calibration_of, reconstruct
 
-        tracks, world = calibrated_tracks(scene, folder, TRACKER_SETTINGS,
-                                          quiet=options.quiet, timings=timings)
-        helper = None
-        calibration = {n: v.camera.to_dict() for n, v in scene.views.items()}
-    else:
-        tracks, helper = _track_views(scene, folder, options, timings, workers,
-                                      label_of=label_of)
-        from vidtrack.run.corrections import correct_tracks
-
-        # the scene's exclude_frames and manual_points, before the merge
-        with about(label_of(None)):
-            tracks = correct_tracks(scene, folder, tracks)
-        t0 = time.perf_counter()
-        tracks, world = _merged(scene, tracks)
-        timings["merge"] = time.perf_counter() - t0
-        if helper is not None:
-            helper.send_tracks({n: tr.data for n, tr in tracks.items()})
-        calibration = {n: v.to_dict() for n, v in scene.views.items()}
+    tracks, helper = _track_views(scene, folder, options, timings, workers,
+                                  label_of=label_of)
+    # the scene's exclude_frames and manual_points, before the reconstruction
+    with about(label_of(None)):
+        tracks = correct_tracks(tracks, corrections)
+    t0 = time.perf_counter()
+    world = reconstruct(scene, tracks)
+    tracks = world.tracks
+    timings["merge"] = time.perf_counter() - t0
+    if helper is not None:
+        helper.send_tracks({n: tr.data for n, tr in tracks.items()})
+    calibration = calibration_of(scene)
     with _whole_or_none(out_dir, TRACKS_FILES):
         write_tracks(h5, tracks, world, scene_hash=scene.hash, calibration=calibration)
         _write_tables(scene, out_dir, tracks, world)
         stages.record("tracks", key, TRACKS_FILES)
     return key, tracks, world, False, helper
-
-
-def _merged(scene, tracks):
-    """(tracks, world): the views' tracks merged into the world track (orthogonal views)
-    or triangulated (calibrated cameras). From fresh tracks, and from the views of a
-    tracks.h5 edited by hand (the world track is always rebuilt from its views)."""
-    if scene.calibrated:
-        from vidtrack.run.calibrated import triangulate_scene
-
-        return tracks, triangulate_scene(scene, tracks)
-    from vidtrack.world.shared_x import merge_reconciled
-
-    mappings = {n: v.mapping() for n, v in scene.views.items()}
-    # the views' scales measured on the shared X, reconciled where the rulers' stated
-    # uncertainty explains their ratio (vidtrack.world.shared_x)
-    world = merge_reconciled(tracks, mappings,
-                             sync={n: v.sync_frame for n, v in scene.views.items()},
-                             rel={n: v.scale_rel_uncertainty[0] for n, v in scene.views.items()},
-                             ruler_px={n: v.scale.span_px if v.ruler is not None and v.scale
-                                       else None for n, v in scene.views.items()})
-    # the merge flags each view's frames before its t = 0 and carries the release over
-    return world.tracks or tracks, world
 
 
 def _write_tables(scene, out_dir, tracks, world):
@@ -328,8 +311,11 @@ def _reused_tracks(scene, out_dir, key, stages, timings, label):
             _note(f"{label}: {why}, and reads back whole: using it as edited (its views "
                   "are as written; --force tracks again)")
             return _edited_tables(scene, out_dir, key, stages, timings, t0, tf)
+        from vidtrack.run.reconstruct import reconstruct
+
         try:
-            tracks, world = _merged(scene, tf.tracks)
+            world = reconstruct(scene, tf.tracks)
+            tracks = world.tracks
         except (VidtrackError, ValueError, KeyError) as exc:
             raise SceneError(f"{h5} was edited by hand and its views no longer give a world "
                              f"track ({exc}); undo the edit, or run again with --force to "
@@ -407,9 +393,10 @@ def fit_throw_folder(scene, folder, out_dir, options, workers=None, *, plan=None
         plan = RunPlan(scene=scene, out=out_dir, throws=[])
         with about(plan.label(folder)):
             scene = plan.scene_of(folder)                # a throw's own throw.toml
-            found, notes = _check_folder_sources(scene, folder,
-                                                 lambda v: plan.label(folder, v))
+            found, notes, corrections = _check_folder_sources(
+                scene, folder, lambda v: plan.label(folder, v))
             plan.findings[folder], plan.notes[folder] = found, notes
+            plan.corrections[folder] = corrections
             _refuse(found, options)
             check_output_folder(out_dir, RUN_OUTPUTS, plan.label(folder))
     label = plan.label(folder)
@@ -425,8 +412,7 @@ def _cross_check(scene, tracks, world):
     for n, v in scene.views.items():
         if hasattr(v, "mapping"):
             mappings[n] = v.mapping()
-    if hasattr(world, "mappings"):          # the scales as merged (reconciled on X)
-        mappings = world.mappings(mappings)
+    mappings = world.mappings(mappings)     # the scales as merged (reconciled on X)
     return cross_checks(world, tracks, mappings, g=scene.physics.gravity_m_s2,
                         sources={n: {"fps": getattr(v, "fps", None)}
                                  for n, v in scene.views.items()})
@@ -466,7 +452,7 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
     timings = {}
     t_start = time.perf_counter()
     tracks_key, tracks, world, reused, helper = _tracks_stage(
-        scene, folder, out_dir, options, timings, stages, workers,
+        scene, folder, out_dir, options, timings, stages, workers, plan.corrections[folder],
         label_of=lambda view: plan.label(folder, view) if view else label)
     findings = list(plan.findings.get(folder, [])) + _cross_check(scene, tracks, world)
     if findings and not options.accept_disagreement:
@@ -509,7 +495,7 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
             _note(f"{label}: {why}; fitting again")
     _remove_outputs(out_dir, stages, ("fit",), FIT_FILES)
     notes = list(plan.notes.get(folder, [])) + _accepted(findings, label)
-    shared = getattr(world, "shared_x", None)
+    shared = world.shared_x
     if shared is not None and (shared.seen or not shared.reconciled):
         # the views' relative scale: said when the data show it (or it was not reconciled)
         _note(f"{label}: {shared.note()}")

@@ -169,6 +169,10 @@ class RunPlan:
         Throw folder -> notes for fit.json (a frame range clipped at the end).
     scenes : dict
         Throw folder -> the throw's scene (:meth:`scene_of`).
+    corrections : dict
+        Throw folder -> {view: (exclude_frames, ManualPoints or None)}: each view's
+        corrections as read once for the run
+        (:func:`vidtrack.run.corrections.read_corrections`).
     """
 
     scene: object
@@ -177,6 +181,7 @@ class RunPlan:
     findings: dict = field(default_factory=dict)
     notes: dict = field(default_factory=dict)
     scenes: dict = field(default_factory=dict)
+    corrections: dict = field(default_factory=dict)
 
     def scene_of(self, folder):
         """The scene of the throw in ``folder``: the run's with the throw's own
@@ -207,9 +212,9 @@ def _source_of(view, scene, folder):
     return view.source if Path(folder) == scene.folder else view.source_in(folder)
 
 
-def _open_and_check(view, path, label, *, scene=None, folder=None):
+def _open_and_check(view, path, label, manual):
     """Open a view's footage: its frame count, a clipped range, the sync frame, the
-    frames of its corrections (excluded ranges, manual points), and that a colour
+    frames of its corrections (excluded ranges, ``manual`` points), and that a colour
     ``channel`` has colour to take (``"auto"`` refuses nothing: it chooses when the
     footage is tracked, so it is not made to choose here too)."""
     from vidtrack.footage import open_source
@@ -233,46 +238,44 @@ def _open_and_check(view, path, label, *, scene=None, folder=None):
                         f"its {len(src)} frames, 0..{last}")
                 raise SceneError(f"views.{view.name}.sync_frame = {int(sync)} is not among "
                                  f"{used} in {path}; expected a frame of the footage")
-        if scene is not None:
-            from vidtrack.run.corrections import check_in_footage
+        from vidtrack.run.corrections import check_in_footage
 
-            check_in_footage(scene, folder, view.name, first, last, path)
+        check_in_footage(view, manual, first, last, path)
     return notes
 
 
 def _check_folder_sources(scene, folder, label_of, *, open_sources=True):
-    """Steps 1-3 for one run or throw folder; returns (findings, notes)."""
+    """Steps 1-3 for one run or throw folder; returns (findings, notes, corrections):
+    the corrections as :attr:`RunPlan.corrections` holds them."""
     from vidtrack.run.checks import check_source_path, same_footage
+    from vidtrack.run.corrections import read_corrections
 
-    paths = {}
+    paths, corrections = {}, {}
     for name in scene.view_names:
         view = scene.views[name]
         path = _source_of(view, scene, folder)
-        key = "points" if getattr(view, "points", None) is not None else "source"
+        key = "points" if view.points is not None else "source"
         with about(label_of(name), view=name):
             check_source_path(path, f"views.{name}.{key}")
-            if getattr(view, "manual_points_text", None) is not None:
-                # read and checked per folder: a throw has a file of its own
-                from vidtrack.run.corrections import view_corrections
-
-                view_corrections(scene, folder, name)
+            # read and checked per folder: a throw has a file of its own
+            corrections[name] = read_corrections(scene, folder, name)
         paths[name] = path
     findings = []
     same = same_footage({n: p for n, p in paths.items()
-                         if getattr(scene.views[n], "points", None) is None})
+                         if scene.views[n].points is None})
     if same is not None:
         findings.append(same)
     notes = []
     if open_sources:
         for name in scene.view_names:
             view = scene.views[name]
-            if getattr(view, "points", None) is not None:
+            if view.points is not None:
                 continue                       # points digitized elsewhere, not footage
             with about(label_of(name), view=name):
                 notes += [f"{name}: {n}" for n in
-                          _open_and_check(view, paths[name], label_of(name), scene=scene,
-                                          folder=folder)]
-    return findings, notes
+                          _open_and_check(view, paths[name], label_of(name),
+                                          corrections[name][1])]
+    return findings, notes, corrections
 
 
 def prepare_run(run_dir, *, open_sources=True, check_outputs=True):
@@ -307,10 +310,11 @@ def prepare_run(run_dir, *, open_sources=True, check_outputs=True):
     for folder, _ in plan.folders():
         with about(plan.label(folder)):
             throw = plan.scene_of(folder)        # the throw's throw.toml, checked first
-        findings, notes = _check_folder_sources(
+        findings, notes, corrections = _check_folder_sources(
             throw, folder, lambda v, f=folder: plan.label(f, v), open_sources=open_sources)
         plan.findings[folder] = findings
         plan.notes[folder] = notes
+        plan.corrections[folder] = corrections
     if check_outputs:
         label = plan.label()
         check_output_folder(plan.out, RUN_OUTPUTS if not plan.throws else

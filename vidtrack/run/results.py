@@ -194,7 +194,7 @@ class RunFit(HtmlSummary, Mapping):
     def world(self):
         """The world track as a DataFrame: ``frame`` (the reference view's file frame),
         ``t_s`` (s since the release), ``x_m``, ``y_m``, ``z_m``; more columns for
-        calibrated cameras (:attr:`vidtrack.world.orthogonal.WorldTrack.data`).
+        calibrated cameras (:attr:`vidtrack.world.world_track.WorldTrack.data`).
 
         Raises
         ------

@@ -116,7 +116,7 @@ def scale_error(scene, tracks, fit, *, cp, model="quadratic", world=None):
         The drag parameter used, s/m.
     model : str
         The throw model used.
-    world : vidtrack.world.orthogonal.WorldTrack, optional
+    world : vidtrack.world.world_track.WorldTrack, optional
         The world track fitted: its ``shared_x`` gives the reconciled scales and their
         covariance (without it, the scene's scales, independent).
 
@@ -132,7 +132,7 @@ def scale_error(scene, tracks, fit, *, cp, model="quadratic", world=None):
         return None
     names = [n for n in scene.view_names if n in tracks]
     mappings = {n: scene.views[n].mapping() for n in names}
-    shared = getattr(world, "shared_x", None)
+    shared = None if world is None else world.shared_x
     if shared is not None and shared.reconciled:
         mappings = world.mappings(mappings)
     else:

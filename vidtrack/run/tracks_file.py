@@ -87,7 +87,7 @@ class TracksFile:
     ----------
     tracks : dict of str to vidtrack.track.tracker.Track
         The views in the file.
-    world : vidtrack.world.orthogonal.WorldTrack or None
+    world : vidtrack.world.world_track.WorldTrack or None
         The world track, when the file has one.
     vidtrack_version, scene_hash : str
         Root attributes.
@@ -138,7 +138,7 @@ def _dataset(group, name, data):
 
 
 def _is_calibrated(world):
-    return world is not None and hasattr(world, "rotation")
+    return world is not None and world.calibrated
 
 
 def _view_order(tracks):
@@ -190,7 +190,7 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
         when the new one is complete.
     tracks : dict of str to vidtrack.track.tracker.Track
         ``front`` and/or ``top``.
-    world : vidtrack.world.orthogonal.WorldTrack, optional
+    world : vidtrack.world.world_track.WorldTrack, optional
         The merged world track.
     scene_hash : str, keyword-only
         ``Scene.hash`` of the scene the tracks came from.
@@ -283,7 +283,7 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
                 g.attrs["x_rms_px"] = _num(world.x_rms_px)
                 g.attrs["x_points"] = int(world.x_points)
                 g.attrs["warnings"] = _json(list(world.warnings))
-                if getattr(world, "shared_x", None) is not None:
+                if world.shared_x is not None:
                     g.attrs["shared_x"] = _json(world.shared_x.to_dict())
     with atomic_path(path) as tmp:
         tmp.write_bytes(buffer.getvalue())
@@ -323,7 +323,8 @@ def read_tracks(path):
     """
     import h5py
 
-    from vidtrack.world.orthogonal import WorldTrack, reference_frames
+    from vidtrack.world.orthogonal import reference_frames
+    from vidtrack.world.world_track import WorldTrack
     from vidtrack.world.shared_x import SharedScale
     from vidtrack.track.tracker import OPTIONAL_COLUMNS, TRACK_COLUMNS, Track
 
@@ -393,7 +394,7 @@ def read_tracks(path):
                 data=pd.DataFrame({"frame": frames, **cols}),
                 t0_s=t0_s,
                 sync=json.loads(_attr(g, "sync", path, "/world")),
-                reference=reference,
+                reference=reference, kind="orthogonal",
                 x_rms_m=_none_if_nan(_attr(g, "x_rms_m", path, "/world")),
                 x_rms_px=_none_if_nan(_attr(g, "x_rms_px", path, "/world")),
                 x_points=int(_attr(g, "x_points", path, "/world")),
@@ -410,18 +411,19 @@ def read_tracks(path):
 
 
 def _read_calibrated(g, path):
-    from vidtrack.world.calibrated import CalibratedWorld
+    from vidtrack.world.world_track import WorldTrack
 
     columns = json.loads(_attr(g, "columns", path, "/world"))
     missing = [c for c in columns if c not in g]
     if missing:
         raise TrackError(f"{path}: /world has no dataset {missing[0]!r}")
     info = json.loads(_attr(g, "summary", path, "/world"))
-    return CalibratedWorld(
-        data=pd.DataFrame({c: g[c][()] for c in columns}), reference=info["reference"],
-        offsets_s=info["offsets_s"], sync=info["sync"], rotation=np.array(info["rotation"]),
+    return WorldTrack(
+        data=pd.DataFrame({c: g[c][()] for c in columns}), t0_s={}, sync=info["sync"],
+        reference=info["reference"], kind="calibrated", warnings=tuple(info["warnings"]),
+        offsets_s=info["offsets_s"], rotation=np.array(info["rotation"]),
         forward_from=info["forward_from"], median_reprojection_px=info["median_reprojection_px"],
-        flag_threshold_px=info["flag_threshold_px"], warnings=tuple(info["warnings"]))
+        flag_threshold_px=info["flag_threshold_px"])
 
 
 def _flag_names(values):
@@ -534,7 +536,7 @@ def write_tables(folder, tracks, world=None, *, missing_only=False):
     folder : str or os.PathLike
         The output folder (beside tracks.h5; created if missing).
     tracks : dict of str to vidtrack.track.tracker.Track
-    world : vidtrack.world.orthogonal.WorldTrack, optional
+    world : vidtrack.world.world_track.WorldTrack, optional
     missing_only : bool, keyword-only
         Write only a table that is missing or older than ``folder/tracks.h5`` (for
         tracks reused from that file).

@@ -115,6 +115,9 @@ class CameraView:
         Half-open frame ranges never used (flagged EXCLUDED).
     manual_points, manual_points_text : pathlib.Path or None, str or None
         Points placed by hand (CSV ``frame,u_px,v_px``), in the view's own pixels.
+    manual_points_read : vidtrack.scene.corrections.ManualPoints or None
+        That file as the scene's reader read it (None: not read, a run with
+        ``throws/`` reads each throw's own).
     """
 
     name: str
@@ -133,6 +136,7 @@ class CameraView:
     exclude_frames: tuple = ()
     manual_points: Path | None = None
     manual_points_text: str | None = None
+    manual_points_read: object = field(default=None, compare=False, repr=False)
 
     def source_in(self, folder):
         """The source of this view inside ``folder`` (a throw's subfolder)."""
@@ -319,14 +323,15 @@ def parse_camera_view(ck, name, view, folder, *, fps_range, frames_and_sync):
             ck.fail(f"{path}.{key}", "goes with source (footage to track), not points: a "
                     "view that gives points is not tracked")
     exclude = parse_exclude(ck, view, path, frames)
-    manual, manual_text = parse_manual_points(ck, view, path, folder, frames, exclude)
+    manual, manual_text, manual_read = parse_manual_points(ck, view, path, folder, frames,
+                                                           exclude)
     source = (points.file if points else
               (_resolve(folder, source_text) if folder is not None else Path(source_text)))
     return CameraView(name=name, source=source, source_text=source_text, points=points,
                       fps=fps, camera=camera, model=model, pixel_origin=origin, frames=frames,
                       sync_frame=sync, calibration=calib, channel=channel, target=target,
                       exclude_frames=exclude, manual_points=manual,
-                      manual_points_text=manual_text)
+                      manual_points_text=manual_text, manual_points_read=manual_read)
 
 
 def check_parallax(ck, views):

@@ -133,22 +133,25 @@ def parse_exclude(ck, view, path, frames):
 
 
 def parse_manual_points(ck, view, path, folder, frames, exclude):
-    """A view's ``manual_points = "FILE.csv"``: ``(path, text)`` or ``(None, None)``.
+    """A view's ``manual_points = "FILE.csv"``: ``(path, text, points)``, or three Nones.
 
     With a run folder (``folder``) that has no ``throws/``, the file is read and checked
-    here (:func:`read_manual_points`), its frames against ``frames`` and ``exclude``.
+    here (:func:`read_manual_points`), its frames against ``frames`` and ``exclude``:
+    ``points`` is the :class:`ManualPoints` read (a run uses them as read here); else
+    ``points`` is None (a run with ``throws/`` reads each throw's file).
     """
     if "manual_points" not in view:
-        return None, None
+        return None, None, None
     key = f"{path}.manual_points"
     text = ck.string(view, "manual_points", key)
     if folder is None:
-        return Path(text), text
+        return Path(text), text, None
     file = manual_points_file(folder, text)
+    points = None
     if not (Path(folder) / "throws").is_dir():
         points = read_manual_points(file, label=ck.label, key=key, text=text)
         check_manual_frames(points, label=ck.label, key=key, frames=frames, exclude=exclude)
-    return file, text
+    return file, text, points
 
 
 def manual_points_file(folder, text):

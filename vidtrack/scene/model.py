@@ -247,9 +247,15 @@ class ViewSpec:
         in those frames and are fitted.
     manual_points_text : str or None
         ``manual_points`` as written.
+    manual_points_read : vidtrack.scene.corrections.ManualPoints or None
+        That file as the scene's reader read it (None: not read, a run with
+        ``throws/`` reads each throw's own).
     m_per_px_rel_uncertainty : float or None
         The stated relative standard uncertainty of a scale given directly
         (``m_per_px``, or a calibration file's ``[scale]``); None: not stated.
+    points : None
+        Always None: an orthogonal view is tracked from its footage (a calibrated view,
+        :class:`vidtrack.scene.cameras.CameraView`, may give points digitized elsewhere).
     """
 
     name: str
@@ -273,6 +279,8 @@ class ViewSpec:
     manual_points: Path | None = None
     manual_points_text: str | None = None
     m_per_px_rel_uncertainty: float | None = None
+    points: None = None
+    manual_points_read: object = field(default=None, compare=False, repr=False)
 
     @property
     def scale_rel_uncertainty(self):

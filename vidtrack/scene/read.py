@@ -272,7 +272,8 @@ def _parse_view(ck, name, view, folder):
     channel = ck.choice(view, "channel", f"{path}.channel", CHANNELS, default="luma")
     target = _parse_target(ck, view, path, frames)
     exclude = parse_exclude(ck, view, path, frames)
-    manual, manual_text = parse_manual_points(ck, view, path, folder, frames, exclude)
+    manual, manual_text, manual_read = parse_manual_points(ck, view, path, folder, frames,
+                                                           exclude)
     source = _resolve(folder, source_text) if folder is not None else Path(source_text)
     return ViewSpec(name=name, source=source, source_text=source_text, fps=fps, axes=axes,
                     origin_px=origin, scale=scale, ruler=ruler, m_per_px_given=m_given,
@@ -280,6 +281,7 @@ def _parse_view(ck, name, view, folder):
                     frames=frames, sync_frame=sync, channel=channel,
                     camera_distance_m=distance, target=target, exclude_frames=exclude,
                     manual_points=manual, manual_points_text=manual_text,
+                    manual_points_read=manual_read,
                     m_per_px_rel_uncertainty=rel)
 
 

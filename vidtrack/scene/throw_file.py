@@ -98,8 +98,10 @@ def apply_throw(scene, data, folder, *, label):
             changes["exclude_frames"] = parse_exclude(ck, table, key, frames)
         if "manual_points" in table:
             exclude = changes.get("exclude_frames", view.exclude_frames)
-            manual, text = parse_manual_points(ck, table, key, folder, frames, exclude)
-            changes.update(manual_points=manual, manual_points_text=text)
+            manual, text, points = parse_manual_points(ck, table, key, folder, frames,
+                                                       exclude)
+            changes.update(manual_points=manual, manual_points_text=text,
+                           manual_points_read=points)
         views[name] = dataclasses.replace(view, **changes)
     out = dataclasses.replace(scene, views=views)
     return dataclasses.replace(out, hash=scene_digest(out))

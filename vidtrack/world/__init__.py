@@ -1,1 +1,2 @@
-"""From views to the world: the orthogonal front/top merge -> a ``WorldTrack`` in metres."""
+"""From views to the world: the orthogonal front/top merge or the triangulation of calibrated
+cameras -> a ``WorldTrack`` in metres."""

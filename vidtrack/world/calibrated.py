@@ -39,111 +39,20 @@ their meaning.
 """
 
 import logging
-from dataclasses import dataclass
-
 import numpy as np
 
 from vidtrack.errors import TrackError
+from vidtrack.world.world_track import WorldTrack
 
 log = logging.getLogger(__name__)
 
-__all__ = ["CalibratedWorld", "triangulate_views", "throw_rotation", "REPROJECTION"]
+__all__ = ["triangulate_views", "throw_rotation", "REPROJECTION"]
 
 #: Flag of a world row whose reprojection error is far above the run's typical error.
 REPROJECTION = 1
 
 _MIN_OVERLAP = 8
 _FINE_STEP = 0.05
-
-
-@dataclass(frozen=True, eq=False)
-class CalibratedWorld:
-    """Triangulated points of one run, in the calibration's frame and the throw's.
-
-    Attributes
-    ----------
-    data : pandas.DataFrame
-        One row per frame of the reference view that two or more views saw: ``frame``
-        (the reference view's frame), ``t_s`` (s from the first triangulated frame),
-        ``x_m, y_m, z_m`` (the throw's frame; NaN where flagged), ``views`` (how many
-        saw it), ``reprojection_px_<view>`` (each view's reprojection distance, NaN where
-        it did not see the point), ``flags``
-        (:data:`REPROJECTION`), and ``X_m, Y_m, Z_m`` (the calibration's frame, unflagged
-        or not).
-    reference : str
-        The view whose frames are the rows.
-    offsets_s : dict
-        View -> its clock's offset (s): t = frame / fps - offset.
-    sync : dict
-        View -> how the offset was found (``"sync_frame 12"``, ``"reference"``,
-        ``"reprojection (+3.45 frames)"``).
-    rotation : numpy.ndarray, shape (3, 3)
-        Rows: the throw frame's X, Y, Z axes in the calibration's frame.
-    forward_from : str
-        ``"given"``, ``"initial velocity"``, ``"displacement"`` or ``"none"``.
-    median_reprojection_px : float
-        Median reprojection distance over every view and unflagged row.
-    flag_threshold_px : float
-        Rows with any view beyond this are flagged.
-    warnings : tuple of str
-    rod : dict or None
-        The rod correction (``triangulate_views(rod=...)``): ``taper``, ``length_m``,
-        ``radius_m``, ``min_plane_angle_deg``; with the per-row columns
-        ``rod_shift_px_<view>`` (the length of each view's correction, NaN where none) it
-        gives :meth:`to_dict`'s ``rod_correction``. None: not asked for.
-    """
-
-    data: object
-    reference: str
-    offsets_s: dict
-    sync: dict
-    rotation: np.ndarray
-    forward_from: str
-    median_reprojection_px: float
-    flag_threshold_px: float
-    warnings: tuple = ()
-    rod: dict | None = None
-
-    def __repr__(self):
-        ok = int(np.count_nonzero(self.data["flags"].to_numpy() == 0))
-        return (f"CalibratedWorld(rows={len(self.data)}, unflagged={ok}, "
-                f"reference={self.reference!r}, "
-                f"median_reprojection_px={self.median_reprojection_px:.3g})")
-
-    def to_dict(self):
-        """A JSON-ready summary (not the rows)."""
-        flags = self.data["flags"].to_numpy()
-        return {"rows": int(len(self.data)), "reference": self.reference,
-                "flagged": int(np.count_nonzero(flags)),
-                "offsets_s": {k: float(v) for k, v in self.offsets_s.items()},
-                "sync": dict(self.sync), "rotation": self.rotation.tolist(),
-                "forward_from": self.forward_from,
-                "median_reprojection_px": float(self.median_reprojection_px),
-                "flag_threshold_px": float(self.flag_threshold_px),
-                "warnings": list(self.warnings),
-                **({"rod_correction": rc} if (rc := self.rod_summary()) else {})}
-
-    def rod_summary(self):
-        """The rod correction in numbers, or None where none was made: ``rows_corrected``
-        and ``rows_not_corrected`` (triangulated rows whose axis was not determined),
-        ``median_px`` and ``max_px`` (the views' corrections' lengths), per view
-        ``median_px_<view>``; with the settings (:attr:`rod`) when known."""
-        cols = [c for c in self.data.columns if c.startswith("rod_shift_px_")]
-        if not cols:
-            return None
-        shifts = self.data[cols].to_numpy(dtype=np.float64)
-        done = np.isfinite(shifts).any(axis=1)
-        vals = shifts[np.isfinite(shifts)]
-        out = {**(self.rod or {}), "rows_corrected": int(done.sum()),
-               "rows_not_corrected": int((~done).sum()),
-               "median_px": float(np.median(vals)) if vals.size else None,
-               "max_px": float(np.max(vals)) if vals.size else None}
-        for c in cols:
-            v = self.data[c].to_numpy(dtype=np.float64)
-            v = v[np.isfinite(v)]
-            out[f"median_px_{c[len('rod_shift_px_'):]}"] = float(np.median(v)) if v.size \
-                else None
-        return out
 
 
 def _usable(track):
@@ -508,7 +417,11 @@ def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up
 
     Returns
     -------
-    CalibratedWorld
+    vidtrack.world.world_track.WorldTrack
+        ``kind = "calibrated"``: rows at the reference view's frames that two or more
+        views saw, ``t_s`` from the first of them, the throw's frame in ``x_m, y_m,
+        z_m`` (NaN where flagged) and the triangulation's own columns; ``tracks`` the
+        views' tracks as given.
 
     Raises
     ------
@@ -609,7 +522,7 @@ def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up
     if int(np.count_nonzero(flags)):
         log.info("%d of %d triangulated frames flagged: reprojection error beyond %.3g px",
                  int(np.count_nonzero(flags)), len(flags), thr)
-    return CalibratedWorld(data=pd.DataFrame(data), reference=reference, offsets_s=offsets,
-                           sync=how, rotation=rot, forward_from=source,
-                           median_reprojection_px=med_ok, flag_threshold_px=thr,
-                           warnings=tuple(warnings), rod=settings)
+    return WorldTrack(data=pd.DataFrame(data), t0_s={}, sync=how, reference=reference,
+                      kind="calibrated", warnings=tuple(warnings), tracks=dict(tracks),
+                      offsets_s=offsets, rotation=rot, forward_from=source,
+                      median_reprojection_px=med_ok, flag_threshold_px=thr, rod=settings)

@@ -42,7 +42,7 @@ no point of any view from before its t = 0 reaches the world track.
 """
 
 import logging
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -50,10 +50,11 @@ import pandas as pd
 from vidtrack.errors import TrackError
 from vidtrack.track.tracker import PRE_RELEASE
 from vidtrack.world.parallax import correct_parallax
+from vidtrack.world.world_track import WorldTrack
 
 log = logging.getLogger(__name__)
 
-__all__ = ["WorldTrack", "merge_tracks", "view_world", "reference_frames", "WORLD_COLUMNS"]
+__all__ = ["merge_tracks", "view_world", "reference_frames", "WORLD_COLUMNS"]
 
 #: Columns of :attr:`WorldTrack.data` (tracks.h5's ``/world`` and world.csv keep all but
 #: ``frame``, which the reference view's track gives back: :func:`reference_frames`).
@@ -64,81 +65,6 @@ COVERAGE_NOTE_FRACTION = 0.5
 #: Most passes of finding an offset again on the perspective-corrected shared X.
 _RESYNC_PASSES = 4
 _AXES = ("x", "y", "z")
-
-
-@dataclass(frozen=True, eq=False)
-class WorldTrack:
-    """The straw's world track from one or two views.
-
-    Attributes
-    ----------
-    data : pandas.DataFrame
-        Columns ``frame`` (the reference view's 0-based file frame of the row; -1 for a
-        time at no frame of it, in a ``/world`` edited by hand), ``t_s`` (s since the
-        release, t = 0), ``x_m``, ``y_m``, ``z_m`` (world frame, m; NaN where not
-        measured).
-    t0_s : dict
-        View -> time in that view's source clock (``Track.data["t_s"]``) that is t = 0.
-    sync : dict
-        View -> how its t = 0 was found (``"sync_frame 12"``, ``"release"``,
-        ``"shared x"``, ``"first usable frame"``).
-    reference : str
-        The view whose frames are the rows.
-    x_rms_m, x_rms_px : float or None
-        RMS disagreement of the shared X between the views (None with one view or no
-        overlap); in px of the coarser view.
-    x_points : int
-        Points in that comparison.
-    warnings : tuple of str
-        Disagreement beyond the pixel scale, missing releases, and the like.
-    tracks : dict of str to vidtrack.track.tracker.Track or None
-        The views' tracks as merged: frames before each view's t = 0 flagged
-        PRE_RELEASE (and only those), the release carried over to a view that had none
-        of its own (``release_t_s`` is then the view's t = 0). None when read back
-        from a file.
-    shared_x : vidtrack.world.shared_x.SharedScale or None
-        The views' relative scale and offset measured on the shared X, and whether
-        their scales were reconciled (the world track is then merged with the moved
-        scales); None when not measured (:func:`vidtrack.world.shared_x.merge_reconciled`
-        measures it).
-    """
-
-    data: pd.DataFrame
-    t0_s: dict
-    sync: dict
-    reference: str
-    x_rms_m: float | None = None
-    x_rms_px: float | None = None
-    x_points: int = 0
-    warnings: tuple = ()
-    tracks: dict | None = None
-    shared_x: object | None = None
-
-    def __repr__(self):
-        measured = "/".join(str(int(np.count_nonzero(np.isfinite(self.data[f"{a}_m"]))))
-                            if f"{a}_m" in self.data else "0" for a in _AXES)
-        x = "" if self.x_rms_m is None else f", x_rms_mm={1000 * self.x_rms_m:.3g}"
-        return (f"WorldTrack(rows={len(self.data)}, reference={self.reference!r}, "
-                f"views={', '.join(self.t0_s)}, measured x/y/z={measured}{x}, "
-                f"warnings={len(self.warnings)})")
-
-    def to_dict(self):
-        """A JSON-ready summary (not the rows)."""
-        return {"rows": int(len(self.data)), "t0_s": dict(self.t0_s), "sync": dict(self.sync),
-                "reference": self.reference, "x_rms_m": self.x_rms_m,
-                "x_rms_px": self.x_rms_px, "x_points": int(self.x_points),
-                "measured": {a: int(np.count_nonzero(np.isfinite(self.data[f"{a}_m"])))
-                             for a in _AXES},
-                "warnings": list(self.warnings),
-                **({"shared_x": self.shared_x.to_dict()} if self.shared_x is not None
-                   else {})}
-
-    def mappings(self, mappings):
-        """The views' mappings as this world track was merged with: ``mappings`` (the
-        scene's) with the scales moved where the views were reconciled."""
-        if self.shared_x is None or not self.shared_x.reconciled:
-            return dict(mappings)
-        return self.shared_x.mappings(mappings)
 
 
 def view_world(track, mapping):
@@ -275,7 +201,8 @@ def merge_tracks(tracks, mappings, *, sync=None, min_overlap=10):
 
     Returns
     -------
-    WorldTrack
+    vidtrack.world.world_track.WorldTrack
+        ``kind = "orthogonal"``.
 
     Raises
     ------
@@ -390,7 +317,8 @@ def merge_tracks(tracks, mappings, *, sync=None, min_overlap=10):
     for w in warnings:
         # kept in the result (fit.json notes, the report); shown with vidtrack -v
         log.info("world track: %s", w)
-    return WorldTrack(data=data, t0_s=t0, sync=how, reference=ref, x_rms_m=x_rms_m,
+    return WorldTrack(data=data, t0_s=t0, sync=how, reference=ref, kind="orthogonal",
+                      x_rms_m=x_rms_m,
                       x_rms_px=x_rms_px, x_points=x_points, warnings=tuple(warnings),
                       tracks=merged)
 

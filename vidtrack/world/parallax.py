@@ -188,10 +188,10 @@ def corrected_points(tracks, mappings, t0_s):
     Parameters
     ----------
     tracks : dict of str to vidtrack.track.tracker.Track
-        The merged tracks (:attr:`vidtrack.world.orthogonal.WorldTrack.tracks`).
+        The merged tracks (:attr:`vidtrack.world.world_track.WorldTrack.tracks`).
     mappings : dict of str to calibration.ViewMapping
     t0_s : dict of str to float
-        :attr:`vidtrack.world.orthogonal.WorldTrack.t0_s`.
+        :attr:`vidtrack.world.world_track.WorldTrack.t0_s`.
 
     Returns
     -------

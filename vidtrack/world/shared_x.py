@@ -369,7 +369,7 @@ def merge_reconciled(tracks, mappings, *, sync=None, rel, ruler_px=None):
 
     Returns
     -------
-    vidtrack.world.orthogonal.WorldTrack
+    vidtrack.world.world_track.WorldTrack
         With ``shared_x`` (:class:`SharedScale`, the ratio as the scene's scales give
         it; None with one view); merged with :meth:`SharedScale.mappings` when reconciled.
     """
