@@ -57,6 +57,12 @@ HUBER = 2.5
 SHIFT_TOL = 1e-3
 SHIFT_ITERS = 8
 
+#: A pixel that dims the wall (``beta`` in ``[ratio_min, 1)``) is a shadow's where its
+#: ``a`` is nought within this many of its standard errors plus :data:`SHADOW_NOISE`
+#: pixel noises (a shadow adds no light of its own).
+SHADOW_SE = 3.0
+SHADOW_NOISE = 2.0
+
 #: The region round the crop's centre: the connected pixels of coverage above this.
 REGION_COVER = 0.2
 
@@ -137,7 +143,8 @@ def fit_matte(c, b, noise, ratio_min):
     res = dc - beta * db
     s2 = (res * res).sum(0) / max(n - 2, 1)
     se_a = np.sqrt(s2 * (1.0 / n + mb ** 2 / ((db * db).sum(0) + lam)))
-    shadow = (beta >= ratio_min) & (beta < 1.0) & (np.abs(a) <= 3.0 * se_a + 2.0 * noise)
+    dims = (beta >= ratio_min) & (beta < 1)
+    shadow = dims & (np.abs(a) <= SHADOW_SE * se_a + SHADOW_NOISE * noise)
     cover = np.clip(1.0 - beta, 0.0, 1.0)
     cover[shadow] = 0.0
     return Matte(a, beta, cover, shadow)
