@@ -258,7 +258,7 @@ def _by_matte(source, held, steady, chain, shape, bg, noise, settings, cancel):
         return None
     sample = _spread(idx, MATTE_FRAMES)
     placer = fit_sample(_getter(source, held, steady), sample, chain.u, chain.v, bg, noise,
-                        shape.major, settings.shadow_ratio_min)
+                        shape.major, settings.shadow_ratio_min, settings.matte_misfit_max)
     if not (placer.misfit <= settings.matte_misfit_max
             and placer.gain >= settings.matte_gain_min):
         return None
