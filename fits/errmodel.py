@@ -28,6 +28,7 @@ averaged in consecutive bins of at most :data:`MAX_POINTS` points first (the Jac
 barely changes within a bin), which keeps the cost bounded.
 """
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -133,13 +134,33 @@ def _profile(jq, rq, lam, n, p):
     return min((_reml(jq, rq, lam, 0.0, n, p)[0], 0.0), (float(res.fun), float(res.x)))
 
 
-def _best_time(kernel, lag, ells, jb, rb, n, p):
-    """Profile REML minimised over the correlation time for one kernel shape."""
+#: The diagonalised correlation matrices of the last grid of times seen in this thread:
+#: ``times`` the grid's bytes, ``eigh`` {(kernel, ell): (eigenvalues, eigenvectors)}. The
+#: axes of a track share their times, and so do the fits of tracks sampled alike: each
+#: matrix is then diagonalised once, not once an axis.
+_LAST_GRID = threading.local()
+
+
+def _eigh(kernel, ell, tb, lag):
+    """``numpy.linalg.eigh`` of the ``kernel`` correlation matrix of the times ``tb`` (their
+    lags ``lag``) at correlation time ``ell``, kept for the last grid of times."""
+    times = (tb.dtype.str, tb.shape, tb.tobytes())
+    if getattr(_LAST_GRID, "times", None) != times:
+        _LAST_GRID.times, _LAST_GRID.eigh = times, {}
+    key = (kernel, float(ell))
+    if key not in _LAST_GRID.eigh:
+        _LAST_GRID.eigh[key] = np.linalg.eigh(KERNELS[kernel](lag / ell))
+    return _LAST_GRID.eigh[key]
+
+
+def _best_time(kernel, tb, lag, ells, jb, rb, n, p):
+    """Profile REML minimised over the correlation time for one kernel shape (a name
+    in :data:`KERNELS`)."""
     cache = {}
 
     def profile(ell):
         if ell not in cache:
-            lam, q = np.linalg.eigh(kernel(lag / ell))
+            lam, q = _eigh(kernel, ell, tb, lag)
             jq, rq = q.T @ jb, q.T @ rb
             val, f = _profile(jq, rq, lam, n, p)
             cache[ell] = (val, f, ell, lam, jq, rq)
@@ -195,7 +216,7 @@ def fit_error_model(t, jac, r, *, max_points=MAX_POINTS):
     lag = np.abs(tb[:, None] - tb[None, :])
     ells = np.geomspace(_ELL_STEPS[0] * step, _ELL_STEPS[1] * max(float(np.ptp(tb)), step),
                         _ELL_GRID)
-    fits = {k: _best_time(KERNELS[k], lag, ells, jb, rb, n, p) for k in KERNELS}
+    fits = {k: _best_time(k, tb, lag, ells, jb, rb, n, p) for k in KERNELS}
     # long memory unless the residuals clearly say short (REML better by LONG_MEMORY_SLACK)
     kernel = ("cauchy" if fits["cauchy"][0] <= fits["exponential"][0] + LONG_MEMORY_SLACK
               else "exponential")

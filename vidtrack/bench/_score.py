@@ -141,7 +141,7 @@ def descent_over_ascent(t, v):
 def linear_drag_k(t, y, g=9.81):
     """k (1/s) of ``y(t) = y0 - g/k t + (v0 + g/k)(1 - e^(-kt))/k`` (y up, m), g fixed.
 
-    The fit of ``tests/test_real_footage.py`` (the bear); NaN with too few points.
+    The fit of ``tests/test_real_footage_bear.py``; NaN with too few points.
     """
     from scipy.optimize import least_squares
 
