@@ -133,9 +133,13 @@ class Matte:
 
 
 def crop(image, u, v, size):
-    """The ``size`` x ``size`` crop of ``image`` centred on ``(u, v)`` (float64)."""
-    return cv2.getRectSubPix(np.asarray(image, np.float32), (size, size),
-                             (float(u), float(v))).astype(np.float64)
+    """The ``size`` x ``size`` crop of ``image`` centred on ``(u, v)`` (float64; an 8-bit
+    frame is interpolated as it is, not converted whole first)."""
+    image = np.asarray(image)
+    if image.dtype not in (np.uint8, np.float32):
+        image = image.astype(np.float32)
+    return cv2.getRectSubPix(image, (size, size), (float(u), float(v)),
+                             patchType=cv2.CV_32F).astype(np.float64)
 
 
 def fit_matte(c, b, noise, ratio_min):
