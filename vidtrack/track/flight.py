@@ -36,8 +36,9 @@ from vidtrack.track.joined import follow_back
 from vidtrack.track.link import link
 from vidtrack.track.matte import MATTE_FRAMES, fit_sample
 from vidtrack.track.measure import (BAR_COLUMNS, bar_moments, beside_its_shadow,
-                                    chain_shape, fit_shape, has_highlight, is_rod,
-                                    measure_frame, moment_axes, SHAPE_FRAMES)
+                                    chain_shape, explained_frames, fit_shape,
+                                    has_highlight, is_rod, measure_frame, moment_axes,
+                                    SHAPE_FRAMES)
 from vidtrack.track.rod import END_COLUMNS, MIN_LENGTH_PX
 from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
@@ -250,9 +251,7 @@ def _by_matte(source, held, steady, chain, shape, bg, noise, settings, cancel):
     where it explains the object to ``matte_misfit_max`` noises and better than its
     outline by ``matte_gain_min``; the chain's positions are replaced. Returns the note,
     or None (the points kept)."""
-    idx = np.flatnonzero(chain.explained)
-    if idx.size == 0:
-        idx = chain.frames
+    idx = explained_frames(chain)
     idx = idx[np.isfinite(chain.u[idx]) & np.isfinite(chain.v[idx])]
     if idx.size < MATTE_MIN_FRAMES:
         return None
@@ -288,10 +287,8 @@ def _model_shape(get, detections, chain, shape, detector, settings):
     over up to :data:`~vidtrack.track.measure.SHAPE_FRAMES` of the frames its flight
     explains (all its frames where none is marked) where it is seen of one level;
     ``shape`` is updated in place."""
-    idx = np.flatnonzero(chain.explained)
-    if idx.size == 0:
-        idx = chain.frames
-    idx = np.array([i for i in idx if not detections[i][chain.pick[i]]["mixed"]], int)
+    idx = np.array([i for i in explained_frames(chain)
+                    if not detections[i][chain.pick[i]]["mixed"]], int)
     if idx.size == 0:
         return shape
     take = _spread(idx, SHAPE_FRAMES)

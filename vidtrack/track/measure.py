@@ -28,7 +28,7 @@ from vidtrack.track.path import robust_scale
 
 __all__ = ["Shape", "Measured", "measure_frame", "fit_shape", "SHAPE_FRAMES", "rod_at",
            "chain_shape", "has_highlight", "beside_its_shadow", "BAR_COLUMNS", "bar_moments",
-           "moment_axes"]
+           "moment_axes", "explained_frames"]
 
 #: The per-frame bar of a rod (:func:`measure_frame`): half length, half width (px),
 #: coverage, misfit, angle (rad), blurs across and along (px).
@@ -101,10 +101,14 @@ def chain_shape(chain):
     """The :class:`Shape` of a chain's detections (robust medians) over the frames its
     flight explains (all its frames where none is marked): what the chain took before
     or after the flight (a bounce, the object's shadow joined to it) does not size it."""
-    idx = np.flatnonzero(chain.explained)
-    if idx.size == 0:
-        idx = chain.frames
+    idx = explained_frames(chain)
     return Shape(np.nanmedian(chain.major[idx]), np.nanmedian(chain.minor[idx]))
+
+
+def explained_frames(chain):
+    """The frame positions a chain's flight explains (all its frames where none is)."""
+    idx = np.flatnonzero(chain.explained)
+    return idx if idx.size else chain.frames
 
 
 def is_rod(shape):
