@@ -42,6 +42,7 @@ import logging
 import numpy as np
 
 from vidtrack.errors import TrackError
+from vidtrack.world.attitude import MIN_ELONGATION, MIN_PLANE_ANGLE_DEG, attitude_columns
 from vidtrack.world.world_track import WorldTrack
 
 log = logging.getLogger(__name__)
@@ -56,21 +57,27 @@ _FINE_STEP = 0.05
 
 
 def _usable(track):
+    from vidtrack.world.attitude import image_angle
+
     d = track.data
     ok = track.usable
-    shape = d[[c for c in _SHAPE_COLUMNS if c in d]].to_numpy(float)[ok]
-    if shape.shape[1] != len(_SHAPE_COLUMNS):
+    if all(c in d for c in _SHAPE_COLUMNS):
+        shape = np.column_stack([image_angle(d), d[list(_SHAPE_COLUMNS[1:])].to_numpy(float)])
+        shape = shape[ok]
+    else:
         shape = np.full((int(np.count_nonzero(ok)), len(_SHAPE_COLUMNS)), np.nan)
     return d["frame"].to_numpy()[ok], d[["u_px", "v_px"]].to_numpy(float)[ok], shape
 
 
-#: A track's columns that describe the rod's image (the tracker's; NaN for points).
+#: A track's columns that describe the rod's image (the tracker's; NaN for points); the
+#: angle is the rod's ends' where the tracker gives them
+#: (:func:`vidtrack.world.attitude.image_angle`).
 _SHAPE_COLUMNS = ("angle_rad", "length_px", "area_px")
 #: The rod correction's settings: two views' planes must be this far from parallel, a
 #: view's image this elongated (axis length / diameter of the capsule its moments fit)
 #: for its angle to count, and the correction is iterated this many times.
-ROD_MIN_PLANE_ANGLE_DEG = 10.0
-ROD_MIN_ELONGATION = 1.5
+ROD_MIN_PLANE_ANGLE_DEG = MIN_PLANE_ANGLE_DEG
+ROD_MIN_ELONGATION = MIN_ELONGATION
 ROD_ITERATIONS = 2
 #: Rows without an axis between rows with one are interpolated (the rod turns smoothly)
 #: across at most this many rows where the axes on either side differ by at most this.
@@ -327,22 +334,31 @@ def _rod_lines(uv, shape_rows):
     return direction, ell, rho
 
 
-def _rod_correction(cams, uvs, shapes, tri, taper, t_rows):
-    """Correct each view's centroids for the rod's perspective and triangulate again.
+def _rod_axis(cams, uvs, shapes):
+    """The views' image lines at the rows (:func:`_rod_lines`) and the rod's axis they
+    give (calibration frame, (N, 3); NaN where not measured)."""
+    from vidtrack.world.rod_centroid import axis_from_lines
 
-    Returns the new triangulation, the corrections' lengths (N, M; NaN where none) and
-    the settings found (taper, length_m, radius_m, ...), or the first triangulation and
-    None where the rod could not be measured."""
-    from calibration.triangulation import triangulate
-
-    from vidtrack.world.rod_centroid import (axis_from_lines, pixels_per_m,
-                                             silhouette_bias)
-
-    n, m = len(uvs[0]), len(cams)
     lines = [_rod_lines(uv, sh) for uv, sh in zip(uvs, shapes)]
     axis, _ = axis_from_lines(cams, np.stack(uvs, axis=1),
                               np.stack([ln[0] for ln in lines], axis=1),
                               min_angle_deg=ROD_MIN_PLANE_ANGLE_DEG)
+    return lines, axis
+
+
+def _rod_correction(cams, uvs, lines, axis, tri, taper, t_rows):
+    """Correct each view's centroids for the rod's perspective and triangulate again.
+
+    ``lines`` and ``axis``: the views' image lines and the axis measured from them
+    (:func:`_rod_axis`). Returns the new triangulation, the corrections' lengths (N, M;
+    NaN where none) and the settings found (taper, length_m, radius_m, ...), or the first
+    triangulation and None where the rod could not be measured."""
+    from calibration.triangulation import triangulate
+
+    from vidtrack.world.rod_centroid import pixels_per_m, silhouette_bias
+
+    n, m = len(uvs[0]), len(cams)
+    axis = np.array(axis, copy=True)
     measured = int(np.all(np.isfinite(axis), axis=1).sum())
     filled = _fill_axis(axis, t_rows)
     xyz = tri.xyz
@@ -479,12 +495,16 @@ def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up
     cams = [cameras[n] for n in names]
     tri = triangulate(cams, uvs)
     shifts = settings = None
-    if rod is not None and any(np.isfinite(shapes[n][0]).any() for n in names):
+    axis = np.full((len(t_rows), 3), np.nan)
+    shaped = any(np.isfinite(shapes[n][0]).any() for n in names)
+    if shaped:
         rows_shape = [np.column_stack(
             [shapes[n][0], shapes[n][1]] if n == reference else
             [_at(t_rows + offsets[n], clocks[n][0], shapes[n][k], clocks[n][2], reach=_REACH)
              for k in (0, 1)]) for n in names]
-        tri, shifts, settings = _rod_correction(cams, uvs, rows_shape, tri, rod, t_rows)
+        lines, axis = _rod_axis(cams, uvs, rows_shape)
+    if rod is not None and shaped:
+        tri, shifts, settings = _rod_correction(cams, uvs, lines, axis, tri, rod, t_rows)
         if shifts is None:
             log.info("rod correction: the rod's length could not be measured (too few "
                      "frames with an elongated image in a view): centroids as measured")
@@ -517,6 +537,8 @@ def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up
         log.info("rod correction (%s, %.3g m x %.3g m): %d of %d rows corrected, median "
                  "%.3g px", rod, settings["length_m"], 2 * settings["radius_m"],
                  int(done.sum()), len(done), float(np.nanmedian(shifts[ok])))
+    # the rod's attitude in the throw's frame, where measured (not where flagged)
+    data.update(attitude_columns(np.where(keep[:, None], axis[ok] @ rot.T, np.nan), t))
     good = res[keep]
     med_ok = float(np.median(good[np.isfinite(good)])) if keep.any() else med
     if int(np.count_nonzero(flags)):

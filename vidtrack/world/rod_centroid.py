@@ -28,6 +28,8 @@ centre that holds the axis; the planes' common direction is the axis.
 
 import numpy as np
 
+from vidtrack.world.attitude import axis_from_planes
+
 __all__ = ["TAPERS", "hull_centroid", "silhouette_centroid", "silhouette_bias",
            "axis_from_lines", "capsule_from_moments", "pixels_per_m"]
 
@@ -247,21 +249,7 @@ def axis_from_lines(cameras, points_px, directions_px, *, min_angle_deg=10.0):
         plane = line @ cam.matrix                        # P^T l, per row
         nrm = plane[:, :3]
         normals[:, j] = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
-    have = np.all(np.isfinite(normals), axis=2)
-    out = np.full((n, 3), np.nan)
-    angle = np.zeros(n)
-    rows = np.flatnonzero(have.sum(axis=1) >= 2)
-    if rows.size:
-        nn = np.where(have[rows, :, None], normals[rows], 0.0)
-        S = np.einsum("nmi,nmj->nij", nn, nn)
-        w, v = np.linalg.eigh(S)
-        # two planes: eigenvalues 0, 1 - |cos|, 1 + |cos|; the middle one measures how far
-        # from parallel the planes are (for more views, of the best-separated ones)
-        mid = np.clip(w[:, 1], 0.0, None)
-        angle[rows] = np.degrees(np.arccos(np.clip(1.0 - mid, -1.0, 1.0)))
-        good = angle[rows] >= min_angle_deg
-        out[rows[good]] = v[good, :, 0]
-    return out, angle
+    return axis_from_planes(normals, min_angle_deg=min_angle_deg)
 
 
 def capsule_from_moments(length_px, area_px):
