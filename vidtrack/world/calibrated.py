@@ -42,6 +42,7 @@ import logging
 import numpy as np
 
 from vidtrack.errors import TrackError
+from vidtrack.track.tracker import END_COLUMNS
 from vidtrack.world.attitude import MIN_ELONGATION, MIN_PLANE_ANGLE_DEG, attitude_columns
 from vidtrack.world.world_track import WorldTrack
 
@@ -66,7 +67,9 @@ def _usable(track):
         shape = shape[ok]
     else:
         shape = np.full((int(np.count_nonzero(ok)), len(_SHAPE_COLUMNS)), np.nan)
-    return d["frame"].to_numpy()[ok], d[["u_px", "v_px"]].to_numpy(float)[ok], shape
+    ends = (d[list(END_COLUMNS)].to_numpy(float)[ok] if all(c in d for c in END_COLUMNS)
+            else np.full((int(np.count_nonzero(ok)), len(END_COLUMNS)), np.nan))
+    return d["frame"].to_numpy()[ok], d[["u_px", "v_px"]].to_numpy(float)[ok], shape, ends
 
 
 #: A track's columns that describe the rod's image (the tracker's; NaN for points); the
@@ -346,16 +349,19 @@ def _rod_axis(cams, uvs, shapes):
     return lines, axis
 
 
-def _rod_correction(cams, uvs, lines, axis, tri, taper, t_rows):
+def _rod_correction(cams, uvs, lines, axis, tri, taper, t_rows, ends):
     """Correct each view's centroids for the rod's perspective and triangulate again.
 
     ``lines`` and ``axis``: the views' image lines and the axis measured from them
-    (:func:`_rod_axis`). Returns the new triangulation, the corrections' lengths (N, M;
-    NaN where none) and the settings found (taper, length_m, radius_m, ...), or the first
-    triangulation and None where the rod could not be measured."""
+    (:func:`_rod_axis`); ``ends``: each view's rod ends at the rows ((N, 4) px, NaN where
+    none): where a view has them its point is where it images the rod's 3-D centre
+    (:func:`vidtrack.world.rod_centroid.centre_from_ends`), elsewhere its centroid less
+    the silhouette's predicted offset. Returns the new triangulation, the corrections'
+    lengths (N, M; NaN where none) and the settings found (taper, length_m, radius_m,
+    ...), or the first triangulation and None where the rod could not be measured."""
     from calibration.triangulation import triangulate
 
-    from vidtrack.world.rod_centroid import pixels_per_m, silhouette_bias
+    from vidtrack.world.rod_centroid import centre_from_ends, pixels_per_m, silhouette_bias
 
     n, m = len(uvs[0]), len(cams)
     axis = np.array(axis, copy=True)
@@ -388,6 +394,7 @@ def _rod_correction(cams, uvs, lines, axis, tri, taper, t_rows):
     length_m, radius_m = float(np.median(lengths)), float(np.median(radii))
     shifts = np.full((n, m), np.nan)
     for _ in range(ROD_ITERATIONS):
+        from_ends = 0
         rows = np.all(np.isfinite(axis), axis=1) & np.all(np.isfinite(tri.xyz), axis=1)
         fixed = []
         for j, (cam, uv) in enumerate(zip(cams, uvs)):
@@ -395,6 +402,14 @@ def _rod_correction(cams, uvs, lines, axis, tri, taper, t_rows):
             bias[rows] = silhouette_bias(cam, tri.xyz[rows], axis[rows], length_m, radius_m,
                                          taper=taper)
             bias[~np.isfinite(bias)] = 0.0
+            at_ends = rows & np.all(np.isfinite(ends[j]), axis=1)
+            if at_ends.any():
+                centre = centre_from_ends(cam, ends[j][at_ends, :2], ends[j][at_ends, 2:],
+                                          tri.xyz[at_ends], axis[at_ends],
+                                          length_m=length_m, taper=taper)
+                good = np.all(np.isfinite(centre), axis=1)
+                bias[np.flatnonzero(at_ends)[good]] = uv[at_ends][good] - centre[good]
+                from_ends += int(good.sum())
             fixed.append(uv - bias)
             shifts[:, j] = np.where(rows & np.all(np.isfinite(uv), axis=1),
                                     np.linalg.norm(bias, axis=1), np.nan)
@@ -402,7 +417,7 @@ def _rod_correction(cams, uvs, lines, axis, tri, taper, t_rows):
     settings = {"taper": taper, "length_m": length_m, "radius_m": radius_m,
                 "min_plane_angle_deg": ROD_MIN_PLANE_ANGLE_DEG,
                 "iterations": ROD_ITERATIONS, "rows_axis_measured": measured,
-                "rows_axis_interpolated": filled}
+                "rows_axis_interpolated": filled, "view_rows_from_ends": from_ends}
     return tri, shifts, settings
 
 
@@ -458,13 +473,16 @@ def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up
                          f"the scene has {len(names)} ({', '.join(names)})")
     sync = dict(sync or {})
     image_heights = dict(image_heights or {})
-    clocks, shapes = {}, {}
+    clocks, shapes, ends = {}, {}, {}
     for n in names:
-        frames, uv, shape = _usable(tracks[n])
+        frames, uv, shape, ends[n] = _usable(tracks[n])
         # the image angle as a doubled-angle vector (interpolates across +-pi/2)
         c, si = np.cos(shape[:, 0]), np.sin(shape[:, 0])
         if n in image_heights:
             uv = cameras[n].from_image_pixels(uv, image_heights[n])
+            ends[n] = np.column_stack([cameras[n].from_image_pixels(ends[n][:, k:k + 2],
+                                                                    image_heights[n])
+                                       for k in (0, 2)])
             si = -si
         shapes[n] = (np.column_stack([c * c - si * si, 2.0 * c * si]), shape[:, 1:3])
         if len(frames) < 2:
@@ -504,7 +522,11 @@ def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up
              for k in (0, 1)]) for n in names]
         lines, axis = _rod_axis(cams, uvs, rows_shape)
     if rod is not None and shaped:
-        tri, shifts, settings = _rod_correction(cams, uvs, lines, axis, tri, rod, t_rows)
+        rows_ends = [ends[n] if n == reference else np.column_stack(
+            [_at(t_rows + offsets[n], clocks[n][0], ends[n][:, k:k + 2], clocks[n][2],
+                 reach=_REACH) for k in (0, 2)]) for n in names]
+        tri, shifts, settings = _rod_correction(cams, uvs, lines, axis, tri, rod, t_rows,
+                                                rows_ends)
         if shifts is None:
             log.info("rod correction: the rod's length could not be measured (too few "
                      "frames with an elongated image in a view): centroids as measured")
