@@ -26,10 +26,15 @@ and the tracked angle: each line back-projects to a plane through its camera's c
 the planes meet in the axis), its length and radius from the views' ``length_px`` and
 ``area_px`` (medians over the flight), and each view's centroid is moved by the
 predicted offset of the silhouette's centroid from the projected centre; the views are
-triangulated again (twice). Frames whose axis is not determined (fewer than two views
-with an elongated image, or their planes less than 10 degrees apart: a rod lying in the
-plane of two cameras and itself) are left as measured and counted. Points digitized
-elsewhere carry no angle: nothing is corrected then.
+triangulated again (twice). A view whose tracker gives the rod's two ends places it by
+them instead: its point is where it images the rod's 3-D centre
+(:func:`vidtrack.world.rod_centroid.centre_from_ends`; the taper only shares out how
+far the ends lie beyond the caps' centres). The axis, rotated into the throw's frame, is
+also the world track's attitude (:mod:`vidtrack.world.attitude`). Frames whose axis is
+not determined (fewer than two views with an elongated image, or their planes less than
+10 degrees apart: a rod lying in the plane of two cameras and itself) are left as
+measured and counted. Points digitized elsewhere carry no angle: nothing is corrected
+then.
 
 The throw's frame: the calibration's frame is rotated so that Y is up (``[world] up``) and
 X is the throw's horizontal direction (``[world] forward``, or the horizontal part of the
