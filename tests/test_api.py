@@ -92,7 +92,10 @@ def test_the_tracks_are_tracks_h5_s_with_a_frame_column(fitted):
         assert (data["flags"] & TrackFlag.PRE_RELEASE).any()   # masks a column
     world = fit.world
     assert list(world.columns[:5]) == ["frame", "t_s", "x_m", "y_m", "z_m"]
-    assert list(pd.read_csv(out / "world.csv").columns) == ["t_s", "x_m", "y_m", "z_m"]
+    # the straw's attitude (vidtrack.world.attitude) after the columns of the contract
+    assert list(pd.read_csv(out / "world.csv").columns) == ["t_s", "x_m", "y_m", "z_m",
+                                                            "axis_x", "axis_y", "axis_z",
+                                                            "spin_rad_s"]
     # the rows are the front view's frames: t = frame / fps - t0
     t0 = fit["world"]["t0_s"]["front"]
     fps = scene.views["front"].fps

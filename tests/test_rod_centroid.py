@@ -19,7 +19,8 @@ import pytest
 from calibration.projective import ProjectiveCamera
 from pinhole import look_at
 from vidtrack.world.rod_centroid import (axis_from_lines, capsule_from_moments,
-                                         hull_centroid, silhouette_bias, silhouette_centroid)
+                                         centre_from_ends, hull_centroid, silhouette_bias,
+                                         silhouette_centroid)
 
 LENS = np.array([-0.12, 0.03, 0.0005, -0.0003, 0.0])
 
@@ -114,6 +115,38 @@ def test_perspective_silhouette_centroid_matches_brute_force(case):
     assert np.linalg.norm(pred - truth) < 0.01 + 0.01 * bias_px, (pred, truth, centre_px)
     bias = silhouette_bias(parts[0], [c], [unit], length, radius, taper="perspective")[0]
     assert np.allclose(bias, pred - centre_px, atol=1e-6)
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_the_ends_image_the_centre_where_opencv_projects_it(case):
+    # the rod's ends imaged by cv2.projectPoints (lens included), in either order, and
+    # a point of the axis other than the centre: where the centre images, to 1e-6 px,
+    # though the midpoint of the image ends is off it by tenths of a pixel
+    f, dist, az, el, c, d, lens = case
+    parts = camera(f, dist, az, el, lens)
+    a, b, unit = rod(c, d, 0.12)
+    ends = cv2_project(parts, np.vstack([a, b]))
+    centre_px = cv2_project(parts, [c])[0]
+    elsewhere = np.asarray(c) + 0.37 * unit
+    got = centre_from_ends(parts[0], ends[[0, 1]], ends[[1, 0]], [elsewhere] * 2,
+                           [unit, -unit])
+    np.testing.assert_allclose(got, [centre_px, centre_px], atol=1e-6)
+    assert np.linalg.norm(ends.mean(axis=0) - centre_px) > 0.05
+    # a silhouette's tips (or a bar's ends) lie beyond the caps' centres' images by the
+    # caps' image radii times a constant: moved in by the image length they exceed the
+    # axis segment's by (about the centre), in proportion to the radii as the taper has
+    # them
+    radius = 0.01
+    for taper, beyond in (("uniform", 1.3), ("perspective", 0.7)):
+        radii = ([radius * f / parts[0].depth(np.vstack([a, b]))[k] for k in (0, 1)]
+                 if taper == "perspective" else [radius * f / parts[0].depth([c])[0]] * 2)
+        e = (ends[1] - ends[0]) / np.linalg.norm(ends[1] - ends[0])
+        tips = np.vstack([ends[0] - beyond * radii[0] * e, ends[1] + beyond * radii[1] * e])
+        got = centre_from_ends(parts[0], tips[[0, 1]], tips[[1, 0]], [c] * 2,
+                               [unit, -unit], length_m=0.12, taper=taper)
+        # (the lens bends the line a little: to 1e-3 px there, 1e-6 without)
+        np.testing.assert_allclose(got, [centre_px, centre_px],
+                                   atol=1e-6 if lens is None else 1e-3)
 
 
 def test_uniform_taper_is_the_midpoint_of_the_projected_ends():

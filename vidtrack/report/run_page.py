@@ -91,6 +91,8 @@ def render_markdown(record, *, px_residuals=None):
                   f"{summary['median_reprojection_px']:.3g} px; {summary['flagged']} of "
                   f"{summary['rows']} frames flagged; throw frame X from "
                   f"{summary['forward_from']}.", ""]
+    if (attitude := _attitude_text(summary)) is not None:
+        lines += [f"Attitude: {attitude}", ""]
     for note in record.get("notes", []):
         lines.append(f"- {note}")
     if "views" in record:
@@ -100,6 +102,23 @@ def render_markdown(record, *, px_residuals=None):
                   "report.html; "
                   "`vidtrack overlay RUN` draws the same on every frame."]
     return "\n".join(lines) + "\n"
+
+
+def _attitude_text(summary):
+    """One sentence on the straw's attitude (fit.json's ``world.attitude``), or None
+    where the world track has none."""
+    att = summary.get("attitude")
+    if not att:
+        return None
+    text = (f"The straw's axis was measured on {att['rows_measured']} of {att['rows']} rows "
+            "(world.csv axis_x, axis_y, axis_z; NaN where fewer than two views see it as "
+            "a line)")
+    if att["spin_rad_s_median"] is None:
+        return text + "; its turn rate was not measured."
+    lo, hi = att["spin_rad_s_quartiles"]
+    return (text + f"; it turns at {att['spin_rad_s_median']:.4g} rad/s (median; quartiles "
+            f"{lo:.4g} to {hi:.4g} rad/s; world.csv spin_rad_s): the tumbling the model "
+            "lumps into k.")
 
 
 def _track_plot(views):
@@ -310,6 +329,8 @@ def render_html(record, *, fit=None, world=None, views=None, tracks_img=None, cu
                                  [(a, _html.esc(", ".join(f"{v:.4f}" for v in row)))
                                   for a, row in zip("XYZ", summary["rotation"])]))
         parts.append(_html.png(_calibrated_plot(world), alt="calibrated cameras"))
+    if (attitude := _attitude_text(summary)) is not None:
+        parts += ["<h2>Attitude</h2>", f"<p>{_html.esc(attitude)}</p>"]
     if tracks_img is None and views:
         tracks_img = tracks_image(views)
     if tracks_img:

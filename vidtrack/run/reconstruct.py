@@ -5,8 +5,9 @@ reconciled where the rulers' stated uncertainty explains their ratio
 (:func:`vidtrack.world.shared_x.merge_reconciled`); calibrated cameras at any angle are
 triangulated into the throw's own frame (:func:`vidtrack.world.calibrated.triangulate_views`).
 Both give a :class:`vidtrack.world.world_track.WorldTrack` whose ``tracks`` are the views
-as reconstructed. Used on fresh tracks and on the views of a tracks.h5 edited by hand
-(the world track is always rebuilt from its views).
+as reconstructed, with the straw's attitude per row (its axis and the rate it turns
+at, :mod:`vidtrack.world.attitude`). Used on fresh tracks and on the views of a
+tracks.h5 edited by hand (the world track is always rebuilt from its views).
 """
 
 import logging
@@ -36,14 +37,21 @@ def reconstruct(scene, tracks):
     """
     if scene.calibrated:
         return _triangulated(scene, tracks)
+    import dataclasses
+
+    from vidtrack.world.attitude import orthogonal_attitude
     from vidtrack.world.shared_x import merge_reconciled
 
     views = scene.views
-    return merge_reconciled(tracks, {n: v.mapping() for n, v in views.items()},
-                            sync={n: v.sync_frame for n, v in views.items()},
-                            rel={n: v.scale_rel_uncertainty[0] for n, v in views.items()},
-                            ruler_px={n: v.scale.span_px if v.ruler is not None and v.scale
-                                      else None for n, v in views.items()})
+    mappings = {n: v.mapping() for n, v in views.items()}
+    world = merge_reconciled(tracks, mappings,
+                             sync={n: v.sync_frame for n, v in views.items()},
+                             rel={n: v.scale_rel_uncertainty[0] for n, v in views.items()},
+                             ruler_px={n: v.scale.span_px if v.ruler is not None and v.scale
+                                       else None for n, v in views.items()})
+    # the straw's attitude from the views' image lines (vidtrack.world.attitude)
+    data = world.data.assign(**orthogonal_attitude(world, world.mappings(mappings)))
+    return dataclasses.replace(world, data=data)
 
 
 def _triangulated(scene, tracks):

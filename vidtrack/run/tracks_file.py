@@ -17,7 +17,11 @@ Layout (HDF5, written with h5py, whole or not at all)::
                       attrs: release_frame (-1: none), release_t_s (NaN: none),
                              release_note, fps, frame_shape, noise_sigma, k_sigma,
                              straw_level, scatter_px, notes (JSON)
-    /world            datasets: t_s, x_m, y_m, z_m (float64, NaN where not measured)
+    /world            datasets: t_s, x_m, y_m, z_m (float64, NaN where not measured),
+                      axis_x, axis_y, axis_z, spin_rad_s (float64: the straw's unit
+                      axis in the world frame and the rate it turns at, rad/s; NaN where
+                      not measured; each with attrs units, meaning;
+                      vidtrack.world.attitude)
                       attrs: kind ("orthogonal"), reference, t0_s (JSON), sync (JSON),
                              x_rms_m, x_rms_px (NaN: not checked), x_points, warnings (JSON),
                              shared_x (JSON, two views: the views' relative scale on the
@@ -57,6 +61,7 @@ import pandas as pd
 
 from vidtrack._atomic import atomic_path
 from vidtrack.errors import TrackError
+from vidtrack.world.attitude import ATTITUDE_COLUMNS, ATTITUDE_MEANINGS
 
 __all__ = ["TracksFile", "write_tracks", "read_tracks", "write_tables", "tracks_table",
            "world_table", "SCHEMA", "TRACKS_CSV", "WORLD_CSV"]
@@ -262,12 +267,16 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
             g.attrs["scatter_px"] = float(tr.scatter_px)
             g.attrs["notes"] = _json(list(tr.notes))
         if world is not None:
-            g = h.create_group("world")
+            # (datasets listed in the order written: the contract's columns first)
+            g = h.create_group("world", track_order=True)
             for c in _WORLD_COLS:
                 _dataset(g, c, world.data[c].to_numpy(dtype=np.float64))
+            if not calibrated:
+                for c in _attitude_columns(world):
+                    _dataset(g, c, world.data[c].to_numpy(dtype=np.float64))
             if calibrated:
                 # the triangulation's columns (frame, views, flags, reprojection_px_*,
-                # X_m..Z_m in the calibration's frame) and its summary
+                # X_m..Z_m in the calibration's frame, the attitude) and its summary
                 for c in world.data.columns:
                     if c not in _WORLD_COLS:
                         g.create_dataset(c, data=world.data[c].to_numpy())
@@ -285,6 +294,8 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
                 g.attrs["warnings"] = _json(list(world.warnings))
                 if world.shared_x is not None:
                     g.attrs["shared_x"] = _json(world.shared_x.to_dict())
+            for c in _attitude_columns(world):
+                g[c].attrs["units"], g[c].attrs["meaning"] = ATTITUDE_MEANINGS[c]
     with atomic_path(path) as tmp:
         tmp.write_bytes(buffer.getvalue())
     return path
@@ -390,6 +401,9 @@ def read_tracks(path):
             frames = (reference_frames(tracks[reference].data, t0_s[reference], cols["t_s"])
                       if reference in tracks and reference in t0_s
                       else np.full(len(cols["t_s"]), -1, dtype=np.int64))
+            for c in ATTITUDE_COLUMNS:
+                if c in g:
+                    cols[c] = g[c][()]
             world = WorldTrack(
                 data=pd.DataFrame({"frame": frames, **cols}),
                 t0_s=t0_s,
@@ -507,13 +521,24 @@ def world_table(world):
     """The world track as a table, the rows of ``world.csv``: ``t_s`` (s since the
     release), ``x_m``, ``y_m``, ``z_m`` (NaN where not measured); a calibrated scene's
     world track adds ``frame``, ``views``, ``flags``, ``reprojection_px_<view>`` and
-    ``X_m``, ``Y_m``, ``Z_m`` (the calibration's frame)."""
+    ``X_m``, ``Y_m``, ``Z_m`` (the calibration's frame); then the straw's attitude
+    ``axis_x``, ``axis_y``, ``axis_z`` (unit axis, throw frame) and ``spin_rad_s`` (the
+    rate its axis turns at; :mod:`vidtrack.world.attitude`), NaN where not measured."""
     table = pd.DataFrame({c: world.data[c].to_numpy(dtype=np.float64) for c in _WORLD_COLS})
     if _is_calibrated(world):
         for c in world.data.columns:
             if c not in _WORLD_COLS:
                 table[c] = world.data[c].to_numpy()
+    else:
+        for c in _attitude_columns(world):
+            table[c] = world.data[c].to_numpy(dtype=np.float64)
     return table
+
+
+def _attitude_columns(world):
+    """The attitude columns the world track has (:data:`ATTITUDE_COLUMNS`; none in a
+    world track from before they were kept)."""
+    return [c for c in ATTITUDE_COLUMNS if c in world.data]
 
 
 def _write_csv(path, table):

@@ -358,6 +358,7 @@ class _CameraTrack:
         pose = dict(spec=spec, blade_rad_s=throw.blade_rad_s, spin_rad_s=throw.spin_rad_s)
         c, d = straw_pose(self.t, throw.state, throw.k, **pose)
         self.centre_m = c
+        self.axis = d
         self.depth_m = view.depth(c)
         self.centre_px = view.observed(c)
         self.centre_ideal_px = view.ideal(c)
@@ -546,8 +547,9 @@ def camera_scene_views(spec, views, source_name, release, fmt_number):
 
 def camera_view_truth(spec, view, track, renderer, source, frame=None):
     """``views.<v>`` of truth.json for a pinhole view."""
-    from vidtrack.synth.truth import (_exposure_extents, _header, _json_list, _pose_columns,
-                                      _release_frame_of, _second_columns, _shape_columns)
+    from vidtrack.synth.truth import (_axis_columns, _exposure_extents, _header, _json_list,
+                                      _pose_columns, _release_frame_of, _second_columns,
+                                      _shape_columns)
 
     n = spec.n_frames
     w, h = view.width, view.height
@@ -585,6 +587,7 @@ def camera_view_truth(spec, view, track, renderer, source, frame=None):
             vis2 = (np.isfinite(p2[:, 0]) & (p2[:, 0] > -0.5) & (p2[:, 0] < w - 0.5)
                     & (p2[:, 1] > -0.5) & (p2[:, 1] < h - 0.5))
         table.update(_second_columns(track, vis2))
+    table.update(_axis_columns(track))
     out = _header(spec, source, n, w, h)
     out["camera"] = camera_truth(view, frame)
     if view.mapping is not None:

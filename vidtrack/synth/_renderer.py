@@ -57,6 +57,7 @@ class _ViewTrack:
         c, d = straw_pose(self.t, throw.state, throw.k, spec=spec,
                           blade_rad_s=throw.blade_rad_s, spin_rad_s=throw.spin_rad_s)
         self.centre_m = c
+        self.axis = d
         self.centre_px = view.to_px(c)
         self.end_a_px = view.to_px(c - half * d)
         self.end_b_px = view.to_px(c + half * d)

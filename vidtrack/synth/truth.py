@@ -60,6 +60,14 @@ def _pose_columns(track, t):
     }
 
 
+def _axis_columns(track):
+    """truth.json's per-frame columns of the rod's attitude: its unit axis in the world
+    frame (from end a to end b, the sense the synth turns it in), at t_s."""
+    d = track.axis
+    return {"axis_x": _json_list(d[:, 0]), "axis_y": _json_list(d[:, 1]),
+            "axis_z": _json_list(d[:, 2])}
+
+
 def _shape_columns(track, r, coverage, in_view, inside, reach_border, info):
     """truth.json's per-frame columns of the rod's image (its angle, length and area from
     its projected ends and radius ``r`` in px) and of what it covers and touches."""
@@ -140,6 +148,7 @@ def _view_truth(spec, view, track, renderer, source):
              if spec.distractors else None)
     if extra is not None:
         table.update(extra[0])
+    table.update(_axis_columns(track))
     release = _release_frame_of(t)
     m = view.mapping
     out = _header(spec, source, n, w, h)
@@ -321,6 +330,10 @@ _CONVENTIONS = {
              "shares a pixel with the second straw",
     "world": "x_m, y_m, z_m: the rod centre in the world frame (docs/reference.md) at t_s "
              "(z relative to the machine); before release the straw rides a tooth",
+    "attitude": "axis_x, axis_y, axis_z: the rod's unit axis in the world frame at t_s "
+                "(from one end to the other; after release it turns about truth.spin_axis "
+                "at truth.spin_rad_s, so it turns at spin_rad_s times the sine of its "
+                "angle to spin_axis)",
 }
 
 #: Added to ``conventions`` only in a run with distractors.

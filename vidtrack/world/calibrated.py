@@ -26,10 +26,15 @@ and the tracked angle: each line back-projects to a plane through its camera's c
 the planes meet in the axis), its length and radius from the views' ``length_px`` and
 ``area_px`` (medians over the flight), and each view's centroid is moved by the
 predicted offset of the silhouette's centroid from the projected centre; the views are
-triangulated again (twice). Frames whose axis is not determined (fewer than two views
-with an elongated image, or their planes less than 10 degrees apart: a rod lying in the
-plane of two cameras and itself) are left as measured and counted. Points digitized
-elsewhere carry no angle: nothing is corrected then.
+triangulated again (twice). A view whose tracker gives the rod's two ends places it by
+them instead: its point is where it images the rod's 3-D centre
+(:func:`vidtrack.world.rod_centroid.centre_from_ends`; the taper only shares out how
+far the ends lie beyond the caps' centres). The axis, rotated into the throw's frame, is
+also the world track's attitude (:mod:`vidtrack.world.attitude`). Frames whose axis is
+not determined (fewer than two views with an elongated image, or their planes less than
+10 degrees apart: a rod lying in the plane of two cameras and itself) are left as
+measured and counted. Points digitized elsewhere carry no angle: nothing is corrected
+then.
 
 The throw's frame: the calibration's frame is rotated so that Y is up (``[world] up``) and
 X is the throw's horizontal direction (``[world] forward``, or the horizontal part of the
@@ -42,6 +47,8 @@ import logging
 import numpy as np
 
 from vidtrack.errors import TrackError
+from vidtrack.track.tracker import END_COLUMNS
+from vidtrack.world.attitude import MIN_ELONGATION, MIN_PLANE_ANGLE_DEG, attitude_columns
 from vidtrack.world.world_track import WorldTrack
 
 log = logging.getLogger(__name__)
@@ -56,21 +63,29 @@ _FINE_STEP = 0.05
 
 
 def _usable(track):
+    from vidtrack.world.attitude import image_angle
+
     d = track.data
     ok = track.usable
-    shape = d[[c for c in _SHAPE_COLUMNS if c in d]].to_numpy(float)[ok]
-    if shape.shape[1] != len(_SHAPE_COLUMNS):
+    if all(c in d for c in _SHAPE_COLUMNS):
+        shape = np.column_stack([image_angle(d), d[list(_SHAPE_COLUMNS[1:])].to_numpy(float)])
+        shape = shape[ok]
+    else:
         shape = np.full((int(np.count_nonzero(ok)), len(_SHAPE_COLUMNS)), np.nan)
-    return d["frame"].to_numpy()[ok], d[["u_px", "v_px"]].to_numpy(float)[ok], shape
+    ends = (d[list(END_COLUMNS)].to_numpy(float)[ok] if all(c in d for c in END_COLUMNS)
+            else np.full((int(np.count_nonzero(ok)), len(END_COLUMNS)), np.nan))
+    return d["frame"].to_numpy()[ok], d[["u_px", "v_px"]].to_numpy(float)[ok], shape, ends
 
 
-#: A track's columns that describe the rod's image (the tracker's; NaN for points).
+#: A track's columns that describe the rod's image (the tracker's; NaN for points); the
+#: angle is the rod's ends' where the tracker gives them
+#: (:func:`vidtrack.world.attitude.image_angle`).
 _SHAPE_COLUMNS = ("angle_rad", "length_px", "area_px")
 #: The rod correction's settings: two views' planes must be this far from parallel, a
 #: view's image this elongated (axis length / diameter of the capsule its moments fit)
 #: for its angle to count, and the correction is iterated this many times.
-ROD_MIN_PLANE_ANGLE_DEG = 10.0
-ROD_MIN_ELONGATION = 1.5
+ROD_MIN_PLANE_ANGLE_DEG = MIN_PLANE_ANGLE_DEG
+ROD_MIN_ELONGATION = MIN_ELONGATION
 ROD_ITERATIONS = 2
 #: Rows without an axis between rows with one are interpolated (the rod turns smoothly)
 #: across at most this many rows where the axes on either side differ by at most this.
@@ -327,22 +342,34 @@ def _rod_lines(uv, shape_rows):
     return direction, ell, rho
 
 
-def _rod_correction(cams, uvs, shapes, tri, taper, t_rows):
-    """Correct each view's centroids for the rod's perspective and triangulate again.
+def _rod_axis(cams, uvs, shapes):
+    """The views' image lines at the rows (:func:`_rod_lines`) and the rod's axis they
+    give (calibration frame, (N, 3); NaN where not measured)."""
+    from vidtrack.world.rod_centroid import axis_from_lines
 
-    Returns the new triangulation, the corrections' lengths (N, M; NaN where none) and
-    the settings found (taper, length_m, radius_m, ...), or the first triangulation and
-    None where the rod could not be measured."""
-    from calibration.triangulation import triangulate
-
-    from vidtrack.world.rod_centroid import (axis_from_lines, pixels_per_m,
-                                             silhouette_bias)
-
-    n, m = len(uvs[0]), len(cams)
     lines = [_rod_lines(uv, sh) for uv, sh in zip(uvs, shapes)]
     axis, _ = axis_from_lines(cams, np.stack(uvs, axis=1),
                               np.stack([ln[0] for ln in lines], axis=1),
                               min_angle_deg=ROD_MIN_PLANE_ANGLE_DEG)
+    return lines, axis
+
+
+def _rod_correction(cams, uvs, lines, axis, tri, taper, t_rows, ends):
+    """Correct each view's centroids for the rod's perspective and triangulate again.
+
+    ``lines`` and ``axis``: the views' image lines and the axis measured from them
+    (:func:`_rod_axis`); ``ends``: each view's rod ends at the rows ((N, 4) px, NaN where
+    none): where a view has them its point is where it images the rod's 3-D centre
+    (:func:`vidtrack.world.rod_centroid.centre_from_ends`), elsewhere its centroid less
+    the silhouette's predicted offset. Returns the new triangulation, the corrections'
+    lengths (N, M; NaN where none) and the settings found (taper, length_m, radius_m,
+    ...), or the first triangulation and None where the rod could not be measured."""
+    from calibration.triangulation import triangulate
+
+    from vidtrack.world.rod_centroid import centre_from_ends, pixels_per_m, silhouette_bias
+
+    n, m = len(uvs[0]), len(cams)
+    axis = np.array(axis, copy=True)
     measured = int(np.all(np.isfinite(axis), axis=1).sum())
     filled = _fill_axis(axis, t_rows)
     xyz = tri.xyz
@@ -372,6 +399,7 @@ def _rod_correction(cams, uvs, shapes, tri, taper, t_rows):
     length_m, radius_m = float(np.median(lengths)), float(np.median(radii))
     shifts = np.full((n, m), np.nan)
     for _ in range(ROD_ITERATIONS):
+        from_ends = 0
         rows = np.all(np.isfinite(axis), axis=1) & np.all(np.isfinite(tri.xyz), axis=1)
         fixed = []
         for j, (cam, uv) in enumerate(zip(cams, uvs)):
@@ -379,6 +407,14 @@ def _rod_correction(cams, uvs, shapes, tri, taper, t_rows):
             bias[rows] = silhouette_bias(cam, tri.xyz[rows], axis[rows], length_m, radius_m,
                                          taper=taper)
             bias[~np.isfinite(bias)] = 0.0
+            at_ends = rows & np.all(np.isfinite(ends[j]), axis=1)
+            if at_ends.any():
+                centre = centre_from_ends(cam, ends[j][at_ends, :2], ends[j][at_ends, 2:],
+                                          tri.xyz[at_ends], axis[at_ends],
+                                          length_m=length_m, taper=taper)
+                good = np.all(np.isfinite(centre), axis=1)
+                bias[np.flatnonzero(at_ends)[good]] = uv[at_ends][good] - centre[good]
+                from_ends += int(good.sum())
             fixed.append(uv - bias)
             shifts[:, j] = np.where(rows & np.all(np.isfinite(uv), axis=1),
                                     np.linalg.norm(bias, axis=1), np.nan)
@@ -386,7 +422,7 @@ def _rod_correction(cams, uvs, shapes, tri, taper, t_rows):
     settings = {"taper": taper, "length_m": length_m, "radius_m": radius_m,
                 "min_plane_angle_deg": ROD_MIN_PLANE_ANGLE_DEG,
                 "iterations": ROD_ITERATIONS, "rows_axis_measured": measured,
-                "rows_axis_interpolated": filled}
+                "rows_axis_interpolated": filled, "view_rows_from_ends": from_ends}
     return tri, shifts, settings
 
 
@@ -442,13 +478,16 @@ def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up
                          f"the scene has {len(names)} ({', '.join(names)})")
     sync = dict(sync or {})
     image_heights = dict(image_heights or {})
-    clocks, shapes = {}, {}
+    clocks, shapes, ends = {}, {}, {}
     for n in names:
-        frames, uv, shape = _usable(tracks[n])
+        frames, uv, shape, ends[n] = _usable(tracks[n])
         # the image angle as a doubled-angle vector (interpolates across +-pi/2)
         c, si = np.cos(shape[:, 0]), np.sin(shape[:, 0])
         if n in image_heights:
             uv = cameras[n].from_image_pixels(uv, image_heights[n])
+            ends[n] = np.column_stack([cameras[n].from_image_pixels(ends[n][:, k:k + 2],
+                                                                    image_heights[n])
+                                       for k in (0, 2)])
             si = -si
         shapes[n] = (np.column_stack([c * c - si * si, 2.0 * c * si]), shape[:, 1:3])
         if len(frames) < 2:
@@ -479,12 +518,20 @@ def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up
     cams = [cameras[n] for n in names]
     tri = triangulate(cams, uvs)
     shifts = settings = None
-    if rod is not None and any(np.isfinite(shapes[n][0]).any() for n in names):
+    axis = np.full((len(t_rows), 3), np.nan)
+    shaped = any(np.isfinite(shapes[n][0]).any() for n in names)
+    if shaped:
         rows_shape = [np.column_stack(
             [shapes[n][0], shapes[n][1]] if n == reference else
             [_at(t_rows + offsets[n], clocks[n][0], shapes[n][k], clocks[n][2], reach=_REACH)
              for k in (0, 1)]) for n in names]
-        tri, shifts, settings = _rod_correction(cams, uvs, rows_shape, tri, rod, t_rows)
+        lines, axis = _rod_axis(cams, uvs, rows_shape)
+    if rod is not None and shaped:
+        rows_ends = [ends[n] if n == reference else np.column_stack(
+            [_at(t_rows + offsets[n], clocks[n][0], ends[n][:, k:k + 2], clocks[n][2],
+                 reach=_REACH) for k in (0, 2)]) for n in names]
+        tri, shifts, settings = _rod_correction(cams, uvs, lines, axis, tri, rod, t_rows,
+                                                rows_ends)
         if shifts is None:
             log.info("rod correction: the rod's length could not be measured (too few "
                      "frames with an elongated image in a view): centroids as measured")
@@ -517,6 +564,8 @@ def triangulate_views(tracks, cameras, *, fps, sync=None, image_heights=None, up
         log.info("rod correction (%s, %.3g m x %.3g m): %d of %d rows corrected, median "
                  "%.3g px", rod, settings["length_m"], 2 * settings["radius_m"],
                  int(done.sum()), len(done), float(np.nanmedian(shifts[ok])))
+    # the rod's attitude in the throw's frame, where measured (not where flagged)
+    data.update(attitude_columns(np.where(keep[:, None], axis[ok] @ rot.T, np.nan), t))
     good = res[keep]
     med_ok = float(np.median(good[np.isfinite(good)])) if keep.any() else med
     if int(np.count_nonzero(flags)):

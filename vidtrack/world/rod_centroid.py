@@ -28,8 +28,10 @@ centre that holds the axis; the planes' common direction is the axis.
 
 import numpy as np
 
+from vidtrack.world.attitude import axis_from_planes
+
 __all__ = ["TAPERS", "hull_centroid", "silhouette_centroid", "silhouette_bias",
-           "axis_from_lines", "capsule_from_moments", "pixels_per_m"]
+           "centre_from_ends", "axis_from_lines", "capsule_from_moments", "pixels_per_m"]
 
 #: How the silhouette's width varies along a rod (see the module).
 TAPERS = ("perspective", "uniform")
@@ -213,6 +215,96 @@ def silhouette_bias(camera, centre_m, direction, length_m, radius_m, *, taper="p
             - camera.project(c))
 
 
+def _to_cap_centres(camera, a, b, c, d, length_m, taper):
+    """Image ends (N, 2) moved in along their line to where the rod's caps' centres image
+    (``c -+ length_m / 2 d``): by the image length they exceed the projected axis segment
+    by, shared as the caps' image radii are (equal for the "uniform" taper, each end's
+    ``f r / depth`` for "perspective"); each end goes to the nearer cap."""
+    half = 0.5 * length_m * d
+    ca, cb = c - half, c + half
+    pa, pb = camera.project(ca), camera.project(cb)
+    swap = (np.linalg.norm(a - pb, axis=1) + np.linalg.norm(b - pa, axis=1)
+            < np.linalg.norm(a - pa, axis=1) + np.linalg.norm(b - pb, axis=1))
+    near_a = np.where(swap[:, None], cb, ca)
+    near_b = np.where(swap[:, None], ca, cb)
+    span = b - a
+    ell = np.linalg.norm(span, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e = span / ell[:, None]
+    excess = ell - np.linalg.norm(pb - pa, axis=1)
+    if taper == "perspective":
+        ra, rb = pixels_per_m(camera, near_a), pixels_per_m(camera, near_b)
+    else:
+        ra = rb = np.ones(len(a))
+    return (a + (excess * ra / (ra + rb))[:, None] * e,
+            b - (excess * rb / (ra + rb))[:, None] * e)
+
+
+def centre_from_ends(camera, end_a_px, end_b_px, centre_m, direction, *, length_m=None,
+                     taper="perspective"):
+    """Where a camera images the rod's 3-D centre, from the two ends of its image.
+
+    Parameters
+    ----------
+    camera : calibration.projective.ProjectiveCamera
+    end_a_px, end_b_px : array_like, shape (N, 2)
+        The ends of the rod's image in the camera's observed pixels (in either order).
+    centre_m, direction : array_like, shape (N, 3)
+        A point of the rod's 3-D axis (world, m) and its direction (any length).
+    length_m : float, optional
+        The rod's axis length between its caps' centres. Given, the ends are taken to lie
+        beyond the caps' centres' images by amounts in proportion to the caps' image
+        radii (``taper``), as a silhouette's tips or a fitted bar's ends do, and are first
+        moved in to them; None: the ends are the images of two points of the axis.
+    taper : {"perspective", "uniform"}
+        How the caps' image radii compare (see the module).
+
+    Returns
+    -------
+    numpy.ndarray, shape (N, 2)
+        Observed pixels of the rod's centre (the midpoint of the two 3-D points of the
+        axis the ends, moved in, image); NaN where a row has no ends.
+
+    Notes
+    -----
+    Each end's ray meets the axis line (nearest in the image) at ``c + s d``, depth
+    ``w``; the 3-D midpoint of the two projects to ``(w_a a + w_b b) / (w_a + w_b)``
+    (ideal pixels): the nearer end weighs less, as it images longer. Unlike the
+    silhouette's centroid (:func:`silhouette_bias`) this does not rest on the image's
+    width along the rod.
+    """
+    if taper not in TAPERS:
+        raise ValueError(f"taper must be one of {TAPERS}, got {taper!r}")
+    c = np.atleast_2d(np.asarray(centre_m, dtype=np.float64))
+    d = np.atleast_2d(np.asarray(direction, dtype=np.float64))
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    a = np.atleast_2d(np.asarray(end_a_px, dtype=np.float64))
+    b = np.atleast_2d(np.asarray(end_b_px, dtype=np.float64))
+    if length_m is not None:
+        a, b = _to_cap_centres(camera, a, b, c, d, float(length_m), taper)
+    P = camera.matrix
+    pc = c @ P[:, :3].T + P[:, 3]                     # homogeneous images of c and of d
+    pd = d @ P[:, :3].T
+    ends, depths = [], []
+    for end in (a, b):
+        q = camera.ideal(end)
+        q1 = np.column_stack([q, np.ones(len(q))])
+        # q x (pc + s pd) = 0 in the least-squares sense
+        u, v = np.cross(q1, pc), np.cross(q1, pd)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            s = -np.einsum("ni,ni->n", u, v) / np.einsum("ni,ni->n", v, v)
+        ends.append(q)
+        depths.append(pc[:, 2] + s * pd[:, 2])
+    wa, wb = depths
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ideal = (wa[:, None] * ends[0] + wb[:, None] * ends[1]) / (wa + wb)[:, None]
+    out = np.full(ideal.shape, np.nan)
+    ok = np.all(np.isfinite(ideal), axis=1)
+    if ok.any():
+        out[ok] = _observed(camera, ideal[ok], c[ok])
+    return out
+
+
 def axis_from_lines(cameras, points_px, directions_px, *, min_angle_deg=10.0):
     """The rod's 3-D axis from each view's image line.
 
@@ -247,21 +339,7 @@ def axis_from_lines(cameras, points_px, directions_px, *, min_angle_deg=10.0):
         plane = line @ cam.matrix                        # P^T l, per row
         nrm = plane[:, :3]
         normals[:, j] = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
-    have = np.all(np.isfinite(normals), axis=2)
-    out = np.full((n, 3), np.nan)
-    angle = np.zeros(n)
-    rows = np.flatnonzero(have.sum(axis=1) >= 2)
-    if rows.size:
-        nn = np.where(have[rows, :, None], normals[rows], 0.0)
-        S = np.einsum("nmi,nmj->nij", nn, nn)
-        w, v = np.linalg.eigh(S)
-        # two planes: eigenvalues 0, 1 - |cos|, 1 + |cos|; the middle one measures how far
-        # from parallel the planes are (for more views, of the best-separated ones)
-        mid = np.clip(w[:, 1], 0.0, None)
-        angle[rows] = np.degrees(np.arccos(np.clip(1.0 - mid, -1.0, 1.0)))
-        good = angle[rows] >= min_angle_deg
-        out[rows[good]] = v[good, :, 0]
-    return out, angle
+    return axis_from_planes(normals, min_angle_deg=min_angle_deg)
 
 
 def capsule_from_moments(length_px, area_px):

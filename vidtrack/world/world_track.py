@@ -35,6 +35,10 @@ class WorldTrack:
         saw the row), ``flags`` (:data:`vidtrack.world.calibrated.REPROJECTION`),
         ``reprojection_px_<view>`` (each view's reprojection distance), ``X_m, Y_m, Z_m``
         (the calibration's frame) and, with the rod correction, ``rod_shift_px_<view>``.
+        Either kind as reconstructed for a run ends with the straw's attitude:
+        ``axis_x``, ``axis_y``, ``axis_z`` (its unit axis, throw frame) and
+        ``spin_rad_s`` (the rate the axis turns at), NaN where not measured
+        (:mod:`vidtrack.world.attitude`).
     t0_s : dict
         View -> time in that view's source clock (``Track.data["t_s"]``) that is t = 0.
         Orthogonal only; empty for a calibrated world track (its clocks are
@@ -134,7 +138,13 @@ class WorldTrack:
                              for a in _AXES},
                 "warnings": list(self.warnings),
                 **({"shared_x": self.shared_x.to_dict()} if self.shared_x is not None
-                   else {})}
+                   else {}), **self._attitude_dict()}
+
+    def _attitude_dict(self):
+        from vidtrack.world.attitude import attitude_summary
+
+        summary = attitude_summary(self.data)
+        return {} if summary is None else {"attitude": summary}
 
     def _calibrated_dict(self):
         flags = self.data["flags"].to_numpy()
@@ -146,7 +156,8 @@ class WorldTrack:
                 "median_reprojection_px": float(self.median_reprojection_px),
                 "flag_threshold_px": float(self.flag_threshold_px),
                 "warnings": list(self.warnings),
-                **({"rod_correction": rc} if (rc := self.rod_summary()) else {})}
+                **({"rod_correction": rc} if (rc := self.rod_summary()) else {}),
+                **self._attitude_dict()}
 
     def rod_summary(self):
         """The rod correction in numbers, or None where none was made: ``rows_corrected``
