@@ -363,8 +363,6 @@ _FLIGHT_XFAIL = {
                       "the straw: the blade it has left, of its polarity, still touches "
                       "its end in line with it, unflagged",
     "dark_highlight_riding": "front view: frame 14, as dark_highlight's (0.52 px)",
-    "post": "front view: frames 141-142 going behind the post (0.60, 0.92 px off) and "
-            "172 coming out (0.53 px), unflagged",
 }
 
 

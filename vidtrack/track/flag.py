@@ -19,15 +19,20 @@ Against the chain's own clean frames, two tests with one threshold, ``k_flag``:
   (grown or shrunk at a stroke: something touching, part hidden), APPEARANCE; so is a
   shadow-like detection (:mod:`vidtrack.track.detect`) in a chain that is not one. A
   rod's frames measured by its bar (:mod:`vidtrack.track.rod`) are judged by the bar
-  instead: its length and width for the size, its covered area for the
-  weight, each against the local quadratic in time through its neighbours' (a rod
-  turning end on shrinks smoothly: it is followed, where a median of the neighbours
-  lags it), its misfit over its footprint for the residual. Something beside the rod,
-  even joined to its detection, does not touch the bar; something over it does. A
-  frame only short of weight or size (``hidden``) is suspect, not wrong: where the
-  clean frames round it, every such frame left out, predict it within ``k_flag`` of
-  their scatter (:func:`_on_clean_path`), it is kept (a white glider over a cream wall
-  of its own tones loses a quarter of its weight, its point still on its path).
+  instead: its length for the size, its covered area for the weight, each against the
+  local quadratic in time through its neighbours' (a rod turning end on shrinks
+  smoothly: it is followed, where a median of the neighbours lags it), its misfit over
+  its footprint and caps for the residual, and its misfit over its footprint alone
+  (beyond ``footprint_floor``: the bar fitted to a rod part hidden misfits its own
+  pixels); its width, its diameter in any attitude, against its neighbours' median
+  over four times ``path_window`` (scatter at least ``width_floor``): a post hiding its
+  side narrows it gradually, which a trend would follow. Something beside the rod, even
+  joined to its detection, does not touch the bar; something over it does. A
+  frame only short of weight or size (``hidden``, not narrower) is suspect, not wrong:
+  where the clean frames round it, every such frame left out, predict it within
+  ``k_flag`` of their scatter (:func:`_on_clean_path`), it is kept (a white glider over
+  a cream wall of its own tones loses a quarter of its weight, its point still on its
+  path).
 
 A detection touching the frame's border is BORDER; frames inside the chain's span
 without a detection are LOST, and so are the frames at either end of the chain that the
@@ -72,12 +77,13 @@ RAYLEIGH_MEDIAN = 1.1774100225154747
 REASONS = {"lost": "no detection of the object in this frame (LOST)",
            "border": "the object touches the frame's border (BORDER)",
            "pre-release": "before the release found in the path (PRE_RELEASE)",
-           "touched": "something touches the object: its detection grown at a stroke, or "
-                      "weight near it outside its kernel (APPEARANCE)",
+           "touched": "something touches the object: its detection grown at a stroke, "
+                      "weight near it outside its kernel, or a rod's bar misfitting its own "
+                      "pixels (APPEARANCE)",
            "merged": "its detection another moving thing's too, the two followed apart "
                      "before and after: they cross (MERGED)",
            "hidden": "part of the object hidden: its size or measured weight shrunk at a "
-                     "stroke (APPEARANCE)",
+                     "stroke, or a rod narrower than its neighbours (APPEARANCE)",
            "shadow": "shadow-like in a chain that is not (APPEARANCE)",
            "held": "over pixels where the object stood in nearly every frame the background "
                    "was taken from, which none shows without it: measured against the "
@@ -277,8 +283,17 @@ def _appearance(size_measures, residual, weight, settings, frames=None):
     return touched, hidden
 
 
+def _width_z(width, settings):
+    """A rod's log width (its diameter, in every attitude) less its neighbours' median
+    over ``4 * path_window`` frames either side, in robust scatters of those differences
+    (at least ``width_floor``): judged against its neighbours' level, not their trend (a
+    post hiding the rod's side over a few frames narrows it gradually)."""
+    return _size_z(np.maximum(width, 0.3), settings, 4 * settings.path_window,
+                   floor=settings.width_floor)
+
+
 def judge(chain, detections, n, settings, *, find_release=True, residual=None,
-          weight=None, bar=None, joined=None, held=None):
+          weight=None, bar=None, foot=None, joined=None, held=None):
     """Flags, reasons and the release of a chosen chain.
 
     Parameters
@@ -295,6 +310,10 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     bar : numpy.ndarray, optional
         ``(n, 4)``: per frame, the rod's bar (half length, half width, coverage,
         misfit), NaN where it was not measured by one.
+    foot : numpy.ndarray, optional
+        Per frame, the rod's bar's misfit over its footprint alone, NaN where it was not
+        measured by one: touched beyond ``k_flag`` robust scatters of the chain's (at
+        least ``footprint_floor``) above their median.
     joined : numpy.ndarray of int, optional
         Frame positions where a rod was followed by its model into what it is joined to
         (:mod:`vidtrack.track.joined`): touched where their detection's size exceeds the
@@ -339,11 +358,21 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
                                   None if weight is None else weight[idx], settings)
     barred = (np.isfinite(bar[idx]).all(axis=1) if bar is not None
               else np.zeros(idx.size, bool))
+    narrow = np.zeros(idx.size, bool)
     if barred.any():
         h, w, a, misfit = bar[idx[barred]].T
-        touched[barred], hidden[barred] = _appearance((2.0 * h, 2.0 * w), misfit,
-                                                      4.0 * a * h * w, settings,
-                                                      frames=idx[barred])
+        touched[barred], hidden[barred] = _appearance((2.0 * h,), misfit, 4.0 * a * h * w,
+                                                      settings, frames=idx[barred])
+        # (a rod narrower than its neighbours is part hidden along its side: its width
+        # is measured to a few thousandths, so the frame is not kept on its path's word,
+        # as one only short of weight or size is)
+        z = _width_z(2.0 * w, settings)
+        touched[barred] |= z > settings.k_flag
+        narrow[barred] = z < -settings.k_flag
+        hidden |= narrow
+    if foot is not None:
+        # (the bar misfits its own pixels: part of the rod hidden, or something on it)
+        touched |= residual_outliers(foot[idx], settings, floor=settings.footprint_floor)
     if joined is not None and len(joined):
         # (a frame followed by the rod's model: its length and width are the flight's,
         # held; its detection, grown beyond the flight's, is what it is joined to)
@@ -360,7 +389,7 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     flags[idx[off]] |= OUTLIER
     # (a frame only short of weight or size is suspect, not wrong: where the clean
     # frames round it predict it, it is kept)
-    unhid = _on_clean_path(idx, uv, hidden & ~touched & ~crossed & ~off,
+    unhid = _on_clean_path(idx, uv, hidden & ~narrow & ~touched & ~crossed & ~off,
                            ~grown & ~crossed & ~off, scatter, settings)
     flags[idx[unhid]] &= ~APPEARANCE
     hidden &= ~unhid

@@ -475,6 +475,7 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     flags, release, scatter, notes, reasons = judge(chain, detections, n, settings,
                                            find_release=view != "top", residual=residual,
                                            weight=moments[:, 0], bar=bars[:, :4],
+                                           foot=bars[:, BAR_COLUMNS.index("foot")],
                                            joined=followed, held=over_held)
     if again_note:
         notes.insert(0, again_note)

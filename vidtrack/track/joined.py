@@ -57,7 +57,7 @@ def _clean(chain, bars, flight, settings):
     """Which of the flight's frames show the rod whole and alone: measured by a bar,
     whose misfit, and whose detection's log size, lie within ``k_flag`` robust scatters
     of the flight's (at least ``residual_floor`` and ``size_floor``)."""
-    barred = np.isfinite(bars[flight, :4]).all(axis=1) & np.isfinite(bars[flight, 5:]).all(axis=1)
+    barred = np.isfinite(bars[flight, :4]).all(axis=1) & np.isfinite(bars[flight, 5:7]).all(axis=1)
     if not barred.any():
         return barred
     misfit = bars[flight, 3]
@@ -105,7 +105,7 @@ def follow_back(get, detections, chain, bars, detector, shape, settings):
         return none
     first = int(clean[0])
     lead = clean[:k]
-    h, w, a, _misfit, _angle, s, s2 = np.median(bars[lead], axis=0)
+    h, w, a, _misfit, _angle, s, s2 = np.median(bars[lead, :7], axis=0)
     template = np.array([np.nan, np.nan, np.nan, h, w, a, s, s2])
     ref = detections[first][chain.pick[first]]
     t = [int(i) for i in lead][::-1]                # (the nearest last)
@@ -122,12 +122,12 @@ def follow_back(get, detections, chain, bars, detector, shape, settings):
                      shape, settings, shadow_test=detector.shadow_test)
         if fit is None or fit[2][5] < settings.joined_cover * a:
             break
-        u, v, p, misfit = fit
+        u, v, p, misfit, own = fit
         j = _inside(detections[fi], u, v)
         if j < 0:
             break
         theta = float(p[2])
-        followed.append((fi, j, u, v, (p[3], p[4], p[5], misfit, p[2], p[6], p[7])))
+        followed.append((fi, j, u, v, (p[3], p[4], p[5], misfit, p[2], p[6], p[7], own)))
         t.append(fi)
         pu.append(u)
         pv.append(v)

@@ -32,7 +32,7 @@ __all__ = ["Shape", "Measured", "measure_frame", "fit_shape", "SHAPE_FRAMES", "r
 
 #: The per-frame bar of a rod (:func:`measure_frame`): half length, half width (px),
 #: coverage, misfit, angle (rad), blurs across and along (px).
-BAR_COLUMNS = ("h", "w", "a", "misfit", "angle", "s", "s2")
+BAR_COLUMNS = ("h", "w", "a", "misfit", "angle", "s", "s2", "foot")
 
 #: A rod's bar is fitted to the pixels within its kernel reaching along it at least
 #: this far (px) beyond the half length last fitted to it: the kernel is of the chain's
@@ -256,13 +256,14 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
                               max_misfit=settings.model_max_misfit, weight=pt,
                               noise=_noise(sg, det))
         if fit is not None:
-            cu, cv, fitted, misfit = fit
+            cu, cv, fitted, misfit = fit[:4]
             if rod and _like(fitted, shape):
                 shape.profile = fitted[4:].copy()
                 shape.half = float(fitted[3])
             blur = [float(x) for x in fitted[6:8]] + [np.nan] * (8 - len(fitted))
+            # (the footprint's own misfit: a rod's bar's alone)
             bar = (float(fitted[3]), float(fitted[4]), float(fitted[5]), misfit,
-                   float(fitted[2]), *blur)
+                   float(fitted[2]), *blur, fit[4] if rod else np.nan)
     eu, ev = x - cu, y - cv
     muu = float(np.sum(wi * eu * eu) / sw)
     mvv = float(np.sum(wi * ev * ev) / sw)
@@ -547,11 +548,12 @@ def _kernel_pixels(cover, fg, n_lab, lab, origin, pose, spreads, k, inner, told=
     return x[use], y[use], cover[use], measured, None if told is None else told[use]
 
 
-def residual_outliers(residual, settings):
+def residual_outliers(residual, settings, floor=None):
     """Frames whose residual share lies beyond ``k_flag`` robust scatters of the chain's
-    (at least ``residual_floor``) above its median."""
+    (at least ``floor``, default ``residual_floor``) above its median (False where
+    NaN)."""
     r = np.asarray(residual, float)
     med = float(np.nanmedian(r)) if np.isfinite(r).any() else 0.0
-    scale = robust_scale(r, floor=settings.residual_floor)
+    scale = robust_scale(r, floor=settings.residual_floor if floor is None else floor)
     with np.errstate(invalid="ignore"):
         return r > med + settings.k_flag * scale

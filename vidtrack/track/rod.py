@@ -188,13 +188,15 @@ def fit_rod(x, y, cover, start, profile=None, measured=None, cap_px=2.0, hold=()
 
     Returns
     -------
-    (float, float, numpy.ndarray, float) or None
-        The centre (u, v), the fitted parameters (u, v, theta, h, w, a, s, s2) and the
+    (float, float, numpy.ndarray, float, float) or None
+        The centre (u, v), the fitted parameters (u, v, theta, h, w, a, s, s2), the
         misfit: the RMS residual over the bar's footprint (the pixels it covers at least
         :data:`FOOTPRINT_SHARE` of its coverage ``a``, and the caps ``cap_px``
         beyond its ends) over ``a``, small for the rod alone, large where something
         overlaps it or lies in line with an end (beside it, outside the footprint, it
-        does not count).
+        does not count); and the footprint's own (the caps apart): where part of the rod
+        is hidden, the bar fitted to the rest misfits its own pixels, while the caps
+        vary with the ringing and blur at the ends.
     """
     from scipy.optimize import least_squares
 
@@ -243,5 +245,5 @@ def fit_rod(x, y, cover, start, profile=None, measured=None, cap_px=2.0, hold=()
     if measured is not None:
         foot &= measured
         caps &= measured
-    misfit = max(_rms(resid[foot]), _rms(resid[caps])) / res.x[5]
-    return u, v, res.x, misfit
+    own = _rms(resid[foot]) / res.x[5]
+    return u, v, res.x, max(own, _rms(resid[caps]) / res.x[5]), own

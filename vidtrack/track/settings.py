@@ -16,7 +16,7 @@ from vidtrack.errors import VidtrackError
 __all__ = ["TrackerSettings", "ALGORITHM_VERSION"]
 
 #: Changes whenever the flight tracker's results may change for the same settings.
-ALGORITHM_VERSION = "flight-16"
+ALGORITHM_VERSION = "flight-17"
 
 
 @dataclass(frozen=True)
@@ -121,6 +121,19 @@ class TrackerSettings:
         The smallest scatter of the log of the object's measured weight (its coverage)
         that the appearance test divides by: with ``k_flag`` 5, a frame with a tenth of
         the object hidden is flagged.
+    footprint_floor : float
+        The smallest scatter of a rod's misfit over its own footprint (its bar's RMS
+        residual there over its coverage, its ends' caps apart) that the misfit test
+        divides by: with ``k_flag`` 5, a frame 0.05 above the chain's median is flagged
+        (touched). Measured scatter: synthetic straws 0.006-0.014; a straw coming out from
+        behind a post, 3 % of it hidden at an end, 0.11 over the median.
+    width_floor : float
+        The smallest scatter of the log of a rod's width (its diameter, whatever its
+        attitude) that the width test divides by: with ``k_flag`` 5, a rod 5 % narrower
+        (part of it hidden along its side) or wider (something alongside it) than the
+        median of its neighbours over ``4 * path_window`` frames either side is flagged.
+        Measured scatter of synthetic straws' widths: 0.002-0.005, 0.013 with a
+        highlight.
     path_window : int
         Frames either side of a frame in its local path fit (frames).
     release_window : int
@@ -251,6 +264,8 @@ class TrackerSettings:
     flag_floor_px: float = 0.5
     size_floor: float = 0.08
     weight_floor: float = 0.02
+    width_floor: float = 0.01
+    footprint_floor: float = 0.01
     path_window: int = 6
     release_window: int = 80
     release_significance: float = 25.0
