@@ -91,6 +91,13 @@ def _compare(change, base, width, tr):
     return both, dist, ok & ~np.isfinite(u0[:n])
 
 
+#: How far (px) the balltoss ball's points may move when the clip is inverted: at most,
+#: and the median (measured with the flight tracker: 0.25 and 0.06; module notes of the
+#: test).
+INVERTED_MOST_PX = 0.3
+INVERTED_MEDIAN_PX = 0.1
+
+
 # --------------------------------------------------------------------- balltoss
 @pytest.fixture(scope="module")
 def balltoss(real_footage):
@@ -102,14 +109,19 @@ def balltoss(real_footage):
 @pytest.mark.parametrize("change", ["invert", "mirror"])
 def test_balltoss_inverted_or_mirrored_gives_the_same_track(balltoss, change, tmp_path):
     """The tracker treats both polarities and both directions alike: the same flags,
-    the same points (inverted: exactly; mirrored: to 0.007 px, the order in which sums
-    run and the noise's sampling grid are not mirrored)."""
+    the same points. Mirrored: to 0.007 px (the order in which sums run and the noise's
+    sampling grid are not mirrored). Inverted: a shadow darkens the wall by a factor,
+    which a negative does not (its shadows lighten it), so the tests of a shadow and of
+    a highlight, ratios to the wall, see other pixels: the flight tracker's points move
+    by 0.06 px (median) and 0.25 px at most; the rules tracker's do not move."""
     path, base, width = balltoss
     tr, _ = _track(_write(path, change, tmp_path / f"{change}.avi"), 30)
     both, dist, extra = _compare(change, base, width, tr)
     np.testing.assert_array_equal(tr.usable, base.usable)
     np.testing.assert_array_equal(tr.data["flags"], base.data["flags"])
-    assert np.all(dist[both] < (1e-9 if change == "invert" else 0.02)), dist[both].max()
+    assert np.all(dist[both] < (INVERTED_MOST_PX if change == "invert" else 0.02)), \
+        dist[both].max()
+    assert np.median(dist[both]) < (INVERTED_MEDIAN_PX if change == "invert" else 0.02)
 
 
 @pytest.mark.parametrize("change,share,most", [("half", 0.85, 1.5), ("dim", 0.6, 3.0),
