@@ -30,6 +30,8 @@ The world track's columns (:data:`ATTITUDE_COLUMNS`): ``axis_x``, ``axis_y``, ``
 
 import numpy as np
 
+from vidtrack.world.rod_centroid import MIN_PLANE_ANGLE_DEG, axis_from_planes
+
 __all__ = ["ATTITUDE_COLUMNS", "ATTITUDE_MEANINGS", "MIN_ELONGATION", "MIN_PLANE_ANGLE_DEG",
            "TURN_HALF_WINDOW_ROWS", "image_angle", "elongated", "axis_from_planes",
            "orthogonal_attitude", "attitude_columns", "turn_rate", "attitude_summary"]
@@ -48,9 +50,6 @@ ATTITUDE_MEANINGS = {
 #: A view's image counts as a line when the capsule its moments fit is at least this many
 #: times as long (between its caps' centres) as it is wide.
 MIN_ELONGATION = 1.5
-#: Two views' planes must be at least this far from parallel (degrees) for their
-#: intersection to give the axis.
-MIN_PLANE_ANGLE_DEG = 10.0
 #: The turn rate is taken between the rows this many measured rows before and after.
 TURN_HALF_WINDOW_ROWS = 8
 #: ... or half as many, and so on down to one, until the axis turns by less than this
@@ -112,46 +111,6 @@ def _lines(data, has_ends):
     out = np.column_stack([np.cos(theta), np.sin(theta)])
     out[~ok] = np.nan
     return out
-
-
-def axis_from_planes(normals, *, min_angle_deg=MIN_PLANE_ANGLE_DEG):
-    """The line common to the views' planes through the origin.
-
-    Parameters
-    ----------
-    normals : array_like, shape (N, M, 3)
-        Each view's plane's unit normal per row (NaN: the view gives no plane).
-    min_angle_deg : float
-        The planes must be at least this far from parallel (the smallest angle between
-        the best-separated pair of them).
-
-    Returns
-    -------
-    (numpy.ndarray, numpy.ndarray)
-        Unit directions (N, 3), NaN where not determined, and the angle (degrees) that
-        decided it (0 where fewer than two views give a plane).
-
-    Notes
-    -----
-    The direction least inclined to every plane: the eigenvector of the smallest
-    eigenvalue of ``sum n n^T``. With two planes the eigenvalues are 0, 1 - |cos| and
-    1 + |cos| (``cos`` of the angle between the normals): the middle one measures how
-    far from parallel the planes are.
-    """
-    normals = np.asarray(normals, dtype=np.float64)
-    n = normals.shape[0]
-    have = np.all(np.isfinite(normals), axis=2)
-    out = np.full((n, 3), np.nan)
-    angle = np.zeros(n)
-    rows = np.flatnonzero(have.sum(axis=1) >= 2)
-    if rows.size:
-        nn = np.where(have[rows, :, None], normals[rows], 0.0)
-        w, v = np.linalg.eigh(np.einsum("nmi,nmj->nij", nn, nn))
-        mid = np.clip(w[:, 1], 0.0, None)
-        angle[rows] = np.degrees(np.arccos(np.clip(1.0 - mid, -1.0, 1.0)))
-        good = angle[rows] >= min_angle_deg
-        out[rows[good]] = v[good, :, 0]
-    return out, angle
 
 
 def _one_sense(axis):
@@ -246,7 +205,7 @@ def attitude_summary(data):
 def _view_normals(track, mapping, t_rows, t0_s, step_s):
     """One orthographic view's planes (unit normals, world frame) at the world rows."""
     from vidtrack.track.tracker import END_COLUMNS
-    from vidtrack.world.orthogonal import _interp_gapless
+    from vidtrack.world.resample import interp_gapless
 
     d = track.data[track.usable]
     n = len(t_rows)
@@ -261,8 +220,8 @@ def _view_normals(track, mapping, t_rows, t0_s, step_s):
     ok = np.all(np.isfinite(lines), axis=1) & np.isfinite(phi)
     # between frames as a doubled angle (a line has no sense), never across gaps
     t = d["t_s"].to_numpy(dtype=np.float64)[ok] - t0_s
-    c2 = _interp_gapless(t_rows, t, np.cos(2 * phi[ok]), 2.5 * step_s)
-    s2 = _interp_gapless(t_rows, t, np.sin(2 * phi[ok]), 2.5 * step_s)
+    c2 = interp_gapless(t_rows, t, np.cos(2 * phi[ok]), 2.5 * step_s)
+    s2 = interp_gapless(t_rows, t, np.sin(2 * phi[ok]), 2.5 * step_s)
     half = 0.5 * np.arctan2(s2, c2)
     axes = ["xyz".index(a) for a in mapping.world_axes]
     line3 = np.zeros((n, 3))
@@ -292,12 +251,12 @@ def orthogonal_attitude(world, mappings):
         :data:`ATTITUDE_COLUMNS`, one value per row of ``world.data``; NaN throughout with
         one view.
     """
-    from vidtrack.world.orthogonal import _frame_step
+    from vidtrack.world.resample import frame_step
 
     t_rows = world.data["t_s"].to_numpy(dtype=np.float64)
     names = [v for v in ("front", "top") if v in (world.tracks or {})]
     normals = np.stack([_view_normals(world.tracks[v], mappings[v], t_rows, world.t0_s[v],
-                                      _frame_step(world.tracks[v])) for v in names], axis=1) \
+                                      frame_step(world.tracks[v])) for v in names], axis=1) \
         if names else np.full((len(t_rows), 0, 3), np.nan)
     axis, _ = axis_from_planes(normals)
     return attitude_columns(axis, t_rows)

@@ -50,6 +50,8 @@ import pandas as pd
 from vidtrack.errors import TrackError
 from vidtrack.track.tracker import PRE_RELEASE
 from vidtrack.world.parallax import correct_parallax
+from vidtrack.world.resample import frame_step as _frame_step
+from vidtrack.world.resample import interp_gapless as _interp_gapless
 from vidtrack.world.world_track import WorldTrack
 
 log = logging.getLogger(__name__)
@@ -89,33 +91,6 @@ def view_world(track, mapping):
     for k, axis in enumerate(mapping.world_axes):
         out[f"{axis}_m"] = w[:, k]
     return pd.DataFrame(out)
-
-
-def _interp_gapless(t_new, t, y, max_step):
-    """Linear interpolation of y(t) at t_new, NaN outside [t0, t1] or across gaps."""
-    out = np.full(np.shape(t_new), np.nan)
-    if t.size < 2:
-        return out
-    inside = (t_new >= t[0]) & (t_new <= t[-1])
-    tn = t_new[inside]
-    k = np.searchsorted(t, tn)
-    exact = t[k] == tn
-    before = np.maximum(k - 1, 0)
-    ta, tb = t[before], t[k]
-    with np.errstate(divide="ignore", invalid="ignore"):   # only where exact (tb = ta)
-        val = y[before] + (tn - ta) / (tb - ta) * (y[k] - y[before])
-    ok = exact | ((tb - ta) <= max_step)
-    out[inside] = np.where(ok, np.where(exact, y[k], val), np.nan)
-    return out
-
-
-def _frame_step(track):
-    t = track.data["t_s"].to_numpy(dtype=np.float64)
-    steps = np.diff(t)
-    steps = steps[steps > 0]
-    if not steps.size:
-        return 1.0
-    return float(np.median(steps))
 
 
 def _shared_x_offset(ref_w, t0_ref, other_w, other_step, *, min_overlap, name, scale):

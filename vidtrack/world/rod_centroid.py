@@ -28,10 +28,14 @@ centre that holds the axis; the planes' common direction is the axis.
 
 import numpy as np
 
-from vidtrack.world.attitude import axis_from_planes
 
-__all__ = ["TAPERS", "hull_centroid", "silhouette_centroid", "silhouette_bias",
-           "centre_from_ends", "axis_from_lines", "capsule_from_moments", "pixels_per_m"]
+__all__ = ["TAPERS", "MIN_PLANE_ANGLE_DEG", "hull_centroid", "silhouette_centroid",
+           "silhouette_bias", "centre_from_ends", "axis_from_lines", "axis_from_planes",
+           "capsule_from_moments", "pixels_per_m"]
+
+#: Two views' planes must be at least this far from parallel (degrees) for their
+#: intersection to give the axis.
+MIN_PLANE_ANGLE_DEG = 10.0
 
 #: How the silhouette's width varies along a rod (see the module).
 TAPERS = ("perspective", "uniform")
@@ -372,3 +376,43 @@ def capsule_from_moments(length_px, area_px):
     with np.errstate(divide="ignore", invalid="ignore"):
         ell = (A - np.pi * rho * rho) / (2.0 * rho)
     return np.where(ok, ell, np.nan), np.where(ok, rho, np.nan)
+
+
+def axis_from_planes(normals, *, min_angle_deg=MIN_PLANE_ANGLE_DEG):
+    """The line common to the views' planes through the origin.
+
+    Parameters
+    ----------
+    normals : array_like, shape (N, M, 3)
+        Each view's plane's unit normal per row (NaN: the view gives no plane).
+    min_angle_deg : float
+        The planes must be at least this far from parallel (the smallest angle between
+        the best-separated pair of them).
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        Unit directions (N, 3), NaN where not determined, and the angle (degrees) that
+        decided it (0 where fewer than two views give a plane).
+
+    Notes
+    -----
+    The direction least inclined to every plane: the eigenvector of the smallest
+    eigenvalue of ``sum n n^T``. With two planes the eigenvalues are 0, 1 - |cos| and
+    1 + |cos| (``cos`` of the angle between the normals): the middle one measures how
+    far from parallel the planes are.
+    """
+    normals = np.asarray(normals, dtype=np.float64)
+    n = normals.shape[0]
+    have = np.all(np.isfinite(normals), axis=2)
+    out = np.full((n, 3), np.nan)
+    angle = np.zeros(n)
+    rows = np.flatnonzero(have.sum(axis=1) >= 2)
+    if rows.size:
+        nn = np.where(have[rows, :, None], normals[rows], 0.0)
+        w, v = np.linalg.eigh(np.einsum("nmi,nmj->nij", nn, nn))
+        mid = np.clip(w[:, 1], 0.0, None)
+        angle[rows] = np.degrees(np.arccos(np.clip(1.0 - mid, -1.0, 1.0)))
+        good = angle[rows] >= min_angle_deg
+        out[rows[good]] = v[good, :, 0]
+    return out, angle

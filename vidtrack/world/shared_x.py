@@ -106,7 +106,7 @@ def common_points(points, t0, reference, steps):
     (:func:`vidtrack.world.parallax.corrected_points`); ``t0``: each view's t = 0 on its
     clock; ``steps``: each view's frame interval, s.
     """
-    from vidtrack.world.orthogonal import _interp_gapless
+    from vidtrack.world.resample import interp_gapless as _interp_gapless
 
     other = next(v for v in points if v != reference)
     p, q = points[reference], points[other]
@@ -265,7 +265,7 @@ class SharedScale:
 def _estimate(tracks, mappings, t0, reference):
     """(d_cur, se_d, offset_m, offset_se_m, rho, n, residual_rms_m) from the views'
     disagreement on X with these mappings, or None with too few common points."""
-    from vidtrack.world.orthogonal import _frame_step
+    from vidtrack.world.resample import frame_step as _frame_step
     from vidtrack.world.parallax import corrected_points
 
     steps = {v: _frame_step(tracks[v]) for v in tracks}
