@@ -28,7 +28,6 @@ centre that holds the axis; the planes' common direction is the axis.
 
 import numpy as np
 
-
 __all__ = ["TAPERS", "MIN_PLANE_ANGLE_DEG", "hull_centroid", "silhouette_centroid",
            "silhouette_bias", "centre_from_ends", "axis_from_lines", "axis_from_planes",
            "capsule_from_moments", "pixels_per_m"]
