@@ -59,7 +59,7 @@ from vidtrack.track._flags import (APPEARANCE, BORDER, LOST, MERGED, OUTLIER, PR
 from vidtrack.track.choose import MAJORITY
 from vidtrack.track.joined import size_z
 from vidtrack.track.measure import residual_outliers
-from vidtrack.track.path import local_quadratic, robust_scale, runs
+from vidtrack.track.path import local_quadratic, neighbour_median, robust_scale, runs
 from vidtrack.track.release import find_release as release_knot
 
 __all__ = ["judge", "REASONS", "REASON_COLUMN", "reason_codes"]
@@ -231,20 +231,6 @@ def _end_runs(mask):
     return out
 
 
-def _neighbour_median(x, window):
-    """Each value's neighbours' median within ``window`` positions either side, itself
-    left out (its own value where it has none)."""
-    n = x.size
-    pad = np.concatenate([np.full(window, np.nan), x, np.full(window, np.nan)])
-    wins = np.lib.stride_tricks.sliding_window_view(pad, 2 * window + 1).copy()
-    wins[:, window] = np.nan
-    with warnings.catch_warnings():
-        # (a frame with no neighbour: all-NaN window, its own value kept)
-        warnings.simplefilter("ignore", RuntimeWarning)
-        med = np.nanmedian(wins, axis=1)
-    return np.where(np.isfinite(med), med, x) if n else med
-
-
 def _size_z(size, settings, window, floor=None, frames=None):
     """Each frame's log size less its neighbours' median within ``window`` frames (or,
     given the ``frames``, less the local quadratic in time through them: a size that
@@ -253,7 +239,7 @@ def _size_z(size, settings, window, floor=None, frames=None):
     a stroke (something touching); below ``-k_flag``, shrunk (part hidden)."""
     logs = np.log(np.maximum(size, 1e-9))
     if frames is None:
-        dev = logs - _neighbour_median(logs, window)
+        dev = logs - neighbour_median(logs, window)
     else:
         pred, _ = local_quadratic(np.asarray(frames, float), logs, window)
         dev = np.where(np.isfinite(pred), logs - pred, 0.0)

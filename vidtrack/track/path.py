@@ -8,11 +8,17 @@ equations in time centred on the point, so the fit is well conditioned), and ret
 each point's prediction and the local acceleration.
 """
 
+import warnings
+
 import numpy as np
 
 from vidtrack.track.background import MAD_TO_SIGMA
 
-__all__ = ["local_quadratic", "robust_scale", "extrapolate", "runs", "MAD_TO_SIGMA"]
+__all__ = ["local_quadratic", "robust_trend", "neighbour_median", "robust_scale",
+           "extrapolate", "runs", "MAD_TO_SIGMA", "TUKEY"]
+
+#: Tukey's biweight tuning constant (in robust sigmas of the residuals).
+TUKEY = 4.685
 
 
 def robust_scale(x, *, floor=0.0):
@@ -142,3 +148,53 @@ def local_quadratic(t, y, window, *, leave_out=True, weights=None, leverage=Fals
                 hvar[idx] = np.linalg.solve(a2[ok], e0)[:, 0, 0]
     out = (pred[:, 0], acc[:, 0]) if one else (pred, acc)
     return out + (hvar, avar) if leverage else out
+
+
+def neighbour_median(x, window):
+    """Each value's neighbours' median within ``window`` positions either side, itself
+    left out (its own value where it has none)."""
+    n = x.size
+    pad = np.concatenate([np.full(window, np.nan), x, np.full(window, np.nan)])
+    wins = np.lib.stride_tricks.sliding_window_view(pad, 2 * window + 1).copy()
+    wins[:, window] = np.nan
+    with warnings.catch_warnings():
+        # (a frame with no neighbour: all-NaN window, its own value kept)
+        warnings.simplefilter("ignore", RuntimeWarning)
+        med = np.nanmedian(wins, axis=1)
+    return np.where(np.isfinite(med), med, x) if n else med
+
+
+def robust_trend(t, y, window, *, iters=3):
+    """Each point's value by :func:`local_quadratic` through its neighbours (leaving it
+    out), the neighbours weighed by Tukey's biweight (:data:`TUKEY` robust sigmas) of
+    their residuals, ``iters`` times, the first from their neighbours' median
+    (:func:`neighbour_median`): a run of gross errors where it is the smaller part of a
+    window, even at the end of the series, has no say in its neighbours' values.
+
+    Parameters
+    ----------
+    t : (N,) array
+        Times, increasing.
+    y : (N,) or (N, D) array
+        Values; the weights follow the first column's residuals.
+    window : int
+        Neighbours within ``window`` positions either side.
+    iters : int, keyword-only
+        Reweightings.
+
+    Returns
+    -------
+    (N,) or (N, D) array
+        The values predicted (NaN where too few neighbours).
+    """
+    y = np.asarray(y, float)
+    first = y if y.ndim == 1 else y[:, 0]
+    fit = neighbour_median(first, window)
+    for _ in range(iters):
+        r = first - fit
+        sigma = robust_scale(r, floor=1e-12)
+        weights = np.where(np.isfinite(r),
+                           np.clip(1.0 - (r / (TUKEY * sigma)) ** 2, 0.0, None) ** 2, 0.0)
+        pred, _ = local_quadratic(t, y, window, weights=weights)
+        fit = pred if y.ndim == 1 else pred[:, 0]
+    return pred

@@ -13,16 +13,13 @@ beside something it touched: it is not taken for a release.
 
 import numpy as np
 
-from vidtrack.track.path import MAD_TO_SIGMA
+from vidtrack.track.path import MAD_TO_SIGMA, TUKEY
 
 __all__ = ["find_release", "TUKEY"]
 
 #: The robust reweighting stops once the knot moves less than this (frames) between two
 #: rounds: a hundredth of the 0.5 frame the release is measured to.
 KNOT_CONVERGED_FRAMES = 0.005
-
-#: Tukey's biweight tuning constant (in robust sigmas of the residual distance).
-TUKEY = 4.685
 
 
 def _knot_design(ts, tk):
