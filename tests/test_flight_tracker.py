@@ -13,7 +13,7 @@ from vidtrack.errors import TrackError, VidtrackError
 from vidtrack.track.choose import choose
 from vidtrack.track.detect import DETECTION_DTYPE, Detector
 from vidtrack.track.link import link
-from vidtrack.track.path import local_quadratic
+from vidtrack.track.path import local_quadratic, robust_trend
 from vidtrack.track.settings import TrackerSettings
 
 REPO = Path(__file__).resolve().parents[1]
@@ -46,6 +46,24 @@ def test_local_quadratic_predicts_a_quadratic_exactly_and_its_acceleration():
     y2[30, 0] += 4.0
     pred2, _ = local_quadratic(t, y2, 5)
     assert pred2[30, 0] == pytest.approx(y[30, 0], abs=1e-6)
+
+
+def test_robust_trend_is_not_led_by_a_run_of_gross_errors_at_the_start():
+    """A bar's spread along it: a slow quadratic with noise, its first 14 of 60 points
+    (a run at the series' start, as a straw touching the blade it has left) 1-4 % high.
+    The trend through the rest is found under them (the plain local quadratic follows
+    them); with no error, it is the local quadratic's."""
+    rng = np.random.default_rng(3)
+    t = np.arange(60, dtype=float)
+    clean = np.log(9.8) - 4e-6 * (t - 20.0) ** 2 + rng.normal(0.0, 0.002, t.size)
+    y = clean.copy()
+    y[:14] += np.linspace(0.04, 0.01, 14)
+    truth = np.log(9.8) - 4e-6 * (t - 20.0) ** 2
+    trend = robust_trend(t, y, 48)
+    assert np.max(np.abs(trend[:14] - truth[:14])) < 0.006
+    plain, _ = local_quadratic(t, y, 48)
+    assert np.max(np.abs(plain[:14] - truth[:14])) > 0.01
+    np.testing.assert_allclose(robust_trend(t, truth, 48), truth, atol=1e-9)
 
 
 # ------------------------------------------------------------------ detect

@@ -358,12 +358,7 @@ _XFAIL = {}
 
 #: ... and those the flight tracker (``[track] engine = "flight"``) does not yet pass, with
 #: what was measured (vidtrack bench track --real gives every row).
-_FLIGHT_XFAIL = {
-    "dark_highlight": "front view: frame 14, just after the release, 0.54 px off along "
-                      "the straw: the blade it has left, of its polarity, still touches "
-                      "its end in line with it, unflagged",
-    "dark_highlight_riding": "front view: frame 14, as dark_highlight's (0.52 px)",
-}
+_FLIGHT_XFAIL = {}
 
 
 @pytest.mark.parametrize("name", [

@@ -32,7 +32,7 @@ from vidtrack.track.background import estimate_background, gather_samples, witho
 from vidtrack.track.choose import choose, others_note
 from vidtrack.track.detect import Detector
 from vidtrack.track.flag import REASON_COLUMN, bridge_gaps, judge, reason_codes
-from vidtrack.track.joined import follow_back
+from vidtrack.track.joined import follow_back, hold_profile
 from vidtrack.track.link import link
 from vidtrack.track.matte import MATTE_FRAMES, fit_sample
 from vidtrack.track.measure import (BAR_COLUMNS, bar_moments, beside_its_shadow,
@@ -223,9 +223,8 @@ def _measure(source, held, detector, detections, chain, shape, settings, cancel,
         shape = _model_shape(_getter(source, held, steady), detections, chain, shape,
                              detector, settings)
     frames = held if held is not None else _steadied(_frames(source, cancel), steady)
-    for i, frame in enumerate(frames):
-        if i not in wanted:
-            continue
+
+    def measure(i, frame, held=None):
         det = detections[i][chain.pick[i]]
         if det["mixed"] and beside:
             det = det.copy()
@@ -233,17 +232,25 @@ def _measure(source, held, detector, detections, chain, shape, settings, cancel,
         elif det["mixed"] and highlight:
             det = det.copy()
             det["obj_level"] = det["body_level"]
-        got = measure_frame(frame, detector.bg, detector.sigma, det, shape, settings,
-                            shadow_test=detector.shadow_test)
+        return measure_frame(frame, detector.bg, detector.sigma, det, shape, settings,
+                             shadow_test=detector.shadow_test, held=held)
+
+    def keep(i, got):
         chain.u[i], chain.v[i] = got.u, got.v
         moments[i] = (got.weight, got.muu, got.mvv, got.muv)
         residual[i] = got.residual
         shaded[i] = got.shaded
         if got.bar is not None:
             bars[i] = got.bar
+
+    for i, frame in enumerate(frames):
+        if i not in wanted:
+            continue
+        keep(i, measure(i, frame))
         if i >= chain.frames[-1]:
             break
-    return moments, residual, bars, shaded
+    get = _getter(source, held, steady)
+    return moments, residual, bars, shaded, (lambda i, bar: measure(i, get(i), bar), keep)
 
 
 def _by_matte(source, held, steady, chain, shape, bg, noise, settings, cancel):
@@ -461,8 +468,8 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     rod = is_rod(shape)     # (before the measurement refines the shape's profile)
     # (a rod is followed back into what it rides where its release is looked for)
     follow = rod and view != "top"
-    moments, residual, bars, shaded = _measure(source, held, detector, detections, chain,
-                                               shape, settings, cancel, steady)
+    moments, residual, bars, shaded, remeasure = _measure(source, held, detector, detections,
+                                                      chain, shape, settings, cancel, steady)
     matte_note = None if rod else _by_matte(source, held, steady, chain, shape, detector.bg,
                                             float(background.noise_sigma), settings, cancel)
     get = (held.__getitem__ if held is not None
@@ -472,11 +479,23 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     del held, get
     for i in followed:
         moments[i] = bar_moments(bars[i])
-    flags, release, scatter, notes, reasons = judge(chain, detections, n, settings,
-                                           find_release=view != "top", residual=residual,
-                                           weight=moments[:, 0], bar=bars[:, :4],
-                                           foot=bars[:, BAR_COLUMNS.index("foot")],
-                                           joined=followed, held=over_held)
+
+    def judged():
+        return judge(chain, detections, n, settings, find_release=view != "top",
+                     residual=residual, weight=moments[:, 0], bar=bars[:, :4],
+                     foot=bars[:, BAR_COLUMNS.index("foot")], joined=followed,
+                     held=over_held)
+
+    flags, release, scatter, notes, reasons = judged()
+    # (a rod's bar reaching along into what touches an end, in its flight: measured again
+    # by its own length and blurs, and judged again)
+    refit = (hold_profile(chain, bars, settings, *remeasure, after=release or 0) if rod
+             else np.zeros(0, int))
+    del remeasure
+    if refit.size:
+        flags, release, scatter, notes, reasons = judged()
+        notes.append(f"{refit.size} frames measured by the rod's own length and blurs: its "
+                     f"bar reached farther along, into what touches an end")
     if again_note:
         notes.insert(0, again_note)
     if matte_note:

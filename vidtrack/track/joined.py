@@ -29,9 +29,9 @@ overlaps it) and its path is where the release is looked for.
 import numpy as np
 
 from vidtrack.track.measure import rod_at
-from vidtrack.track.path import extrapolate, robust_scale
+from vidtrack.track.path import extrapolate, robust_scale, robust_trend
 
-__all__ = ["follow_back", "size_z"]
+__all__ = ["follow_back", "hold_profile", "size_z"]
 
 
 #: A point lies in a detection within this many of its spreads from its centre, along
@@ -135,3 +135,81 @@ def follow_back(get, detections, chain, bars, detector, shape, settings):
         chain.take(fi, j, detections, at=(u, v))
         bars[fi] = bar
     return np.array([f[0] for f in followed], int)
+
+
+#: A bar measured again with the rod's own (shorter) half length is taken where its
+#: centre moved along it by at least this share of the half lengths' difference: 1
+#: where one end stayed and the other came in (something in line with that end), 0
+#: where both came in alike (the rod itself longer); halfway decides.
+ONE_END = 0.5
+
+
+def _along(bars):
+    """A bar's log spread along the rod: its length's and its blur's along it
+    (``sqrt(h^2 / 3 + s2^2)``, px)."""
+    return np.log(np.sqrt(bars[:, 0] ** 2 / 3.0 + bars[:, 6] ** 2))
+
+
+def hold_profile(chain, bars, settings, measure, keep, *, after=0):
+    """A rod measured by its own length and blurs where its bar reaches farther along.
+
+    Something in line with an end of a rod (a blade it has just left, of its tone) is
+    taken by the bar, free, for more of the rod: the bar grows and blurs along at that
+    end, and its centre moves towards it. A rod's spread along (its bar's half length
+    ``h`` and blur along ``s2``, :func:`_along`) changes smoothly over its flight (it
+    turns, its speed along it changes), so each frame's is compared with
+    :func:`~vidtrack.track.path.robust_trend` through its flight's neighbours within
+    ``8 * path_window`` frames either side. A frame beyond ``k_flag`` robust scatters of
+    those differences (at least ``profile_floor``) above it is measured again with the
+    bar's half length, half width and blurs held at the trend's, its centre, angle and
+    coverage free. The new point is kept where one end stayed (:data:`ONE_END`): what
+    touches an end moved the free bar's centre towards it, while a rod that is itself
+    longer than the trend (turning fast) shortens at both ends alike. Its bar's misfit
+    then says what touches it (:mod:`vidtrack.track.flag`).
+
+    Parameters
+    ----------
+    chain : vidtrack.track.choose.Chain
+    bars : numpy.ndarray
+        Per frame the bar measured (:data:`~vidtrack.track.measure.BAR_COLUMNS`).
+    settings : vidtrack.track.settings.TrackerSettings
+    measure, keep : callable
+        ``measure(i, held)``: frame position ``i`` measured again with the bar ``held``
+        (a :class:`~vidtrack.track.measure.Measured`); ``keep(i, measured)`` sets the
+        chain's point and ``bars`` (and the rest measured) to it.
+    after : int, keyword-only
+        The flight's frames from this position on (its release: before it, the rod
+        rides what throws it, and its bar is not its own).
+
+    Returns
+    -------
+    numpy.ndarray of int
+        The frame positions measured again.
+    """
+    flight = np.flatnonzero(chain.explained)
+    flight = flight[flight >= after]
+    barred = flight[np.isfinite(bars[flight, :7]).all(axis=1)]
+    if barred.size <= 2 * settings.path_window:
+        return np.zeros(0, int)
+    b = bars[barred]
+    along = _along(b)
+    trend = robust_trend(barred, np.column_stack([along, np.log(b[:, 0]), b[:, 1], b[:, 5],
+                                                  b[:, 6]]), 8 * settings.path_window)
+    dev = along - trend[:, 0]
+    z = dev / robust_scale(dev, floor=settings.profile_floor)
+    done = []
+    for j in np.flatnonzero(np.abs(z) > settings.k_flag):
+        i = int(barred[j])
+        if not np.isfinite(trend[j]).all():
+            continue
+        got = measure(i, np.array([np.nan, np.nan, np.nan, np.exp(trend[j, 1]),
+                                   trend[j, 2], b[j, 2], trend[j, 3], trend[j, 4]]))
+        if got.bar is None:
+            continue
+        shift = ((got.u - chain.u[i]) * np.cos(b[j, 4])
+                 + (got.v - chain.v[i]) * np.sin(b[j, 4]))
+        if abs(shift) < ONE_END * abs(b[j, 0] - got.bar[0]):
+            continue
+        keep(i, got)
+        done.append(i)
+    return np.array(done, int)

@@ -137,7 +137,8 @@ def beside_its_shadow(dets, settings):
         settings.highlight_frames
 
 
-def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=None):
+def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=None,
+                  held=None):
     """The object's point in one frame, by its shape's fit.
 
     Parameters
@@ -153,6 +154,10 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
         ``kernel_sigmas``, ``k_grow``.
     shadow_test : vidtrack.track.detect.ShadowTest, optional
         Given, the pixels it takes for a shadow's are none of the object's.
+    held : array of 8 floats, optional
+        A rod's bar (:func:`vidtrack.track.rod.fit_rod`'s parameters) whose half length,
+        half width and blurs are held (:data:`HELD`) in the fit, its centre, angle and
+        coverage free (:func:`vidtrack.track.joined.hold_profile`).
 
     Returns
     -------
@@ -245,7 +250,10 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
         px, py, pc, measured, pt = _kernel_pixels(cover, fg, n_lab, lab, (r0, c0),
                                                   (cu, cv, theta), (along, b), k, inner,
                                                   told)
-        if rod:
+        if rod and held is not None:
+            fit = fit_rod(px, py, pc, (cu, cv, theta, held[3], held[4]), profile=held[4:],
+                          measured=measured, cap_px=settings.bar_cap_px, hold=HELD)
+        elif rod:
             fit = fit_rod(px, py, pc, (cu, cv, theta, np.sqrt(3.0) * shape.major,
                                        np.sqrt(3.0) * max(shape.minor, 0.3)),
                           profile=shape.profile, measured=measured,
@@ -257,7 +265,7 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
                               noise=_noise(sg, det))
         if fit is not None:
             cu, cv, fitted, misfit = fit[:4]
-            if rod and _like(fitted, shape):
+            if rod and held is None and _like(fitted, shape):
                 shape.profile = fitted[4:].copy()
                 shape.half = float(fitted[3])
             blur = [float(x) for x in fitted[6:8]] + [np.nan] * (8 - len(fitted))

@@ -16,7 +16,7 @@ from vidtrack.errors import VidtrackError
 __all__ = ["TrackerSettings", "ALGORITHM_VERSION"]
 
 #: Changes whenever the flight tracker's results may change for the same settings.
-ALGORITHM_VERSION = "flight-17"
+ALGORITHM_VERSION = "flight-18"
 
 
 @dataclass(frozen=True)
@@ -134,6 +134,14 @@ class TrackerSettings:
         median of its neighbours over ``4 * path_window`` frames either side is flagged.
         Measured scatter of synthetic straws' widths: 0.002-0.005, 0.013 with a
         highlight.
+    profile_floor : float
+        The smallest scatter of the log of a rod's spread along it (its bar's length
+        and blur along, against their robust trend over ``8 * path_window`` frames
+        either side) that the profile test divides by: with ``k_flag`` 5, a bar 1 %
+        longer than its trend is measured again with the rod's own length and blurs
+        held (:func:`vidtrack.track.joined.hold_profile`). Measured scatter: synthetic
+        straws 0.002; a dark straw's end touching the blade it has just left, in line
+        with it, 1.3-2.7 % over its trend.
     path_window : int
         Frames either side of a frame in its local path fit (frames).
     release_window : int
@@ -265,6 +273,7 @@ class TrackerSettings:
     size_floor: float = 0.08
     weight_floor: float = 0.02
     width_floor: float = 0.01
+    profile_floor: float = 0.002
     footprint_floor: float = 0.01
     path_window: int = 6
     release_window: int = 80
