@@ -249,6 +249,9 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, cor
     keys = {n: _view_key(scene, folder, n) for n in scene.view_names
             if scene.views[n].points is None}
     known = {} if options.force else _reused_views(out_dir, keys, stages, label_of(None))
+    if set(known) != set(keys):
+        # a view to track again: views.h5 is written again whole, with the reused views
+        _remove_outputs(out_dir, stages, ("views",), (VIEWS_FILE,))
     tracks, helper = _track_views(scene, folder, options, timings, workers,
                                   label_of=label_of, known=known)
     if set(known) != set(keys):
