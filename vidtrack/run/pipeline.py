@@ -7,9 +7,10 @@ the output folders), for every run of a command before the first is tracked.
 Only the stages a scene needs are run: the views it has, and a stage whose inputs and
 settings are unchanged is reused when its files are still the ones it wrote (its key and
 their sha256 digests kept in ``<run>/vidtrack/stages.json``, :mod:`vidtrack.run.cache`;
-``force=True`` reruns). A stage about to be computed again first removes the outputs
-it and the later stages wrote, so that a run that fails leaves nothing that looks
-current. Every output is written whole or not at all, fit.json before the reports, and
+``force=True`` reruns); each view's tracking is reused on its own, from views.h5, when
+what the tracker reads of it is unchanged. A stage about to be computed again first
+removes the outputs it and the later stages wrote, so that a run that fails leaves
+nothing that looks current. Every output is written whole or not at all, fit.json before the reports, and
 each stage's record after its files, so an interrupted run is simply run again.
 
 After the tracks the views are cross-checked (:mod:`vidtrack.run.checks`); inputs that
@@ -355,22 +356,22 @@ def _reused_tracks(scene, out_dir, key, stages, timings, label):
     h5 = Path(out_dir) / "tracks.h5"
     if not ok and not stages.changed("tracks", key, "tracks.h5"):
         if why:
-            _note(f"{label}: {why}; tracking again")
+            _note(f"{label}: {why}; making the tracks again")
         return None
     t0 = time.perf_counter()
     try:
         tf = read_tracks(h5)
     except Exception as exc:      # noqa: BLE001 (any failure to read back: track again)
         _note(f"{label}: tracks.h5 {'changed and ' if why else ''}does not read back "
-              f"whole ({type(exc).__name__}: {exc}); tracking again")
+              f"whole ({type(exc).__name__}: {exc}); making the tracks again")
         return None
     if tf.world is None or set(tf.tracks) != set(scene.view_names):
         _note(f"{label}: tracks.h5 does not hold this scene's views and world track; "
-              "tracking again")
+              "making the tracks again")
         return None
     if not ok:
         if tf.scene_hash != scene.hash:
-            _note(f"{label}: {why}, for another scene; tracking again")
+            _note(f"{label}: {why}, for another scene; making the tracks again")
             return None
         from vidtrack.run.tracks_file import views_digest
 
