@@ -10,8 +10,9 @@ their sha256 digests kept in ``<run>/vidtrack/stages.json``, :mod:`vidtrack.run.
 ``force=True`` reruns); each view's tracking is reused on its own, from views.h5, when
 what the tracker reads of it is unchanged. A stage about to be computed again first
 removes the outputs it and the later stages wrote, so that a run that fails leaves
-nothing that looks current. Every output is written whole or not at all, fit.json before the reports, and
-each stage's record after its files, so an interrupted run is simply run again.
+nothing that looks current. Every output is written whole or not at all, fit.json before
+the reports, and each stage's record after its files, so an interrupted run is simply
+run again.
 
 After the tracks the views are cross-checked (:mod:`vidtrack.run.checks`); inputs that
 disagree stop the run unless ``FitOptions.accept_disagreement``.
