@@ -4,7 +4,8 @@ Each view's tracking is keyed by what the tracker reads (the footage, the view's
 fps, channel and target, the ``[track]`` table, the tracker): renaming the run or moving
 a ruler reuses the views' tracks from ``vidtrack/views.h5`` and rebuilds the world track
 and the fit from them, with the same numbers as tracking again (``--force``); a change
-the tracker reads tracks that view again, and only it.
+the tracker reads tracks that view again, and only it. A views.h5 changed since it was
+written (even one that reads back whole) is never taken for the tracker's tracks.
 """
 
 import hashlib
@@ -125,3 +126,18 @@ def test_what_the_tracker_reads_tracks_that_view_again(run):
     now, before = _stages(run)["views"]["parts"], now
     assert now["front"] != before["front"] and now["top"] != before["top"]
     assert _digest(out / "views.h5") != views_h5
+
+
+def test_a_views_h5_changed_since_it_was_written_is_not_used(run, fitted):
+    out = run / "vidtrack"
+    with h5py.File(out / "views.h5", "r+") as h:     # reads back whole, not the file written
+        flags = h["front/flags"][()]
+        flags[100:120] |= 256
+        h["front/flags"][...] = flags
+    _edit(run, r'^name = .*?$', 'name = "run42-renamed"')
+    record, err = _fit(run)
+    assert record["stages_reused"] == [], err
+    assert "views.h5 changed since it was written" in err and "tracking the views again" in err
+    assert record["points"] == fitted[1]["points"]
+    views = _stages(run)["views"]
+    assert _digest(out / "views.h5") == views["files"]["views.h5"]
