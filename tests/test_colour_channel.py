@@ -283,8 +283,9 @@ def test_channel_is_read_written_and_in_the_hash(tmp_path):
 
 # --------------------------------------------------------------------- the command line
 def test_changing_the_channel_tracks_again(tmp_path, vidtrack_cli):
-    """run42's footage is grey: "auto" reads it as luma, but the scene changed, so the
-    tracks stage runs again (and gives the same tracks); unchanged, both are reused."""
+    """run42's footage is grey: "auto" reads it as luma, but the front view's channel
+    changed, so that view is tracked again (and gives the same tracks; the top view's
+    are reused); unchanged, both stages are reused."""
     import shutil
     from pathlib import Path
 
@@ -304,7 +305,9 @@ def test_changing_the_channel_tracks_again(tmp_path, vidtrack_cli):
     toml.write_text(toml.read_text().replace("[views.front]\n",
                                              "[views.front]\nchannel = \"auto\"\n", 1))
     record = fit()
-    assert record["stages_reused"] == []
+    # the front view tracked again (the tracker reads its channel), the top view's reused
+    assert record["stages_reused"] == ["views"]
+    assert any(n.startswith("the tracks of the top view reused") for n in record["notes"])
     assert "front: channel auto: the footage is grey; read as luma" in record["notes"]
     assert (run / "vidtrack" / "tracks.csv").read_bytes() == tracks
     assert fit()["stages_reused"] == ["tracks", "fit"]

@@ -801,14 +801,21 @@ _FITTED = {}
 def fitted_run(name="run", run_name=None):
     """A setup: run42 fitted (its vidtrack/ outputs with stages.json) copied to
     ``w/name``, its ``[run] name`` set to ``run_name``; the fit is made once per test
-    process and ``run_name`` and copied with its times kept, so later fits reuse it."""
+    process and ``run_name`` and copied with its times kept, so later fits reuse it.
+    Another ``run_name`` is the run fitted under its own name, renamed and fitted again
+    (the views' tracks reused from views.h5, the world track and the fit made again)."""
     def setup(w):
         import tempfile
 
         if run_name not in _FITTED:
             base = Path(tempfile.mkdtemp(prefix="vidtrack-fitted-")) / "run"
-            run42_copy("run", drop=("vidtrack", "truth.json", MARKER),
-                       scene=None if run_name is None else _named(run_name))(base.parent)
+            if run_name is None:
+                run42_copy("run", drop=("vidtrack", "truth.json", MARKER))(base.parent)
+            else:
+                fitted_run("run")(base.parent)
+                scene = base / "scene.toml"
+                scene.write_text(_named(run_name)(scene.read_text(encoding="utf-8")),
+                                 encoding="utf-8")
             res = run_vidtrack("fit", base, "-q")
             assert res.returncode == 0, res.stderr
             _FITTED[run_name] = base

@@ -25,10 +25,24 @@ WIDE = {"size_px": (640, 240), "top_size_px": (640, 160), "m_per_px": 0.0039,
         "flight_s": 0.4, "frames": None, "seed": 5}
 
 
+@pytest.fixture(scope="module")
+def wide(tmp_path_factory):
+    """The :data:`WIDE` render fitted once (its rulers exact): the tests copy it with its
+    outputs, so that views.h5 gives each view's tracks wherever the tracker would read
+    the same (a ruler is read by the world track only)."""
+    from conftest import run_vidtrack
+
+    out = tmp_path_factory.mktemp("wide") / "run"
+    shutil.copytree(synth_run("shared-x-wide", **WIDE), out)
+    res = run_vidtrack("fit", out, "-q", "--no-report")
+    assert res.returncode == 0, res.stderr
+    return out
+
+
 def _misread(run, tmp_path, name, du, key="to_px"):
     """A copy of ``run`` whose top ruler's ``key`` end is read ``du`` px further along u."""
     out = tmp_path / name
-    shutil.copytree(run, out, ignore=shutil.ignore_patterns("vidtrack"))
+    shutil.copytree(run, out)
     text = (out / "scene.toml").read_text()
     at = text.index("[views.top.ruler]")
     m = re.compile(key + r" = \[([-0-9.e]+), ").search(text, at)
@@ -46,12 +60,14 @@ def _ruler_px(run, view):
 
 
 @pytest.mark.parametrize("du", [0.6, 1.0])
-def test_a_top_ruler_read_long_is_measured_reconciled_and_fitted(tmp_path, vidtrack_cli, du):
-    run = synth_run("shared-x-wide", **WIDE)
+def test_a_top_ruler_read_long_is_measured_reconciled_and_fitted(tmp_path, vidtrack_cli, du,
+                                                                 wide):
+    run = wide
     moved = _misread(run, tmp_path, "moved", du)
     r = vidtrack_cli("fit", str(moved), "--json", "--no-report")
     assert r.returncode == 0, r.stderr
     record = json.loads(r.stdout)
+    assert record["stages_reused"] == ["views"]
     shared = record["world"]["shared_x"]
     # the truth: the top view's X times N / (N + du) against the front's exact scale
     n = _ruler_px(run, "top")
@@ -95,10 +111,9 @@ def test_the_views_of_run42_agree_and_keep_their_scales(tmp_path, vidtrack_cli):
     assert "shared X" not in r.stderr
 
 
-def test_a_wrong_fps_in_one_view_is_still_refused(tmp_path, vidtrack_cli):
-    run = synth_run("shared-x-wide", **WIDE)
+def test_a_wrong_fps_in_one_view_is_still_refused(tmp_path, vidtrack_cli, wide):
     out = tmp_path / "fps"
-    shutil.copytree(run, out, ignore=shutil.ignore_patterns("vidtrack"))
+    shutil.copytree(wide, out)          # the top view tracked again (the tracker reads fps)
     text = (out / "scene.toml").read_text()
     at = text.index("[views.top]")
     m = re.compile(r"fps = ([0-9.]+)").search(text, at)

@@ -1,10 +1,14 @@
 """``stages.json``: what each stage of a run computed, from what, into which files.
 
-Each stage (``tracks``, ``fit``) has an entry::
+Each stage (``views``, ``tracks``, ``fit``) has an entry::
 
     {"key": "<sha256 of the stage's inputs and settings>",
      "at": "2026-11-22T18:30:05Z",              # when it was computed (UTC)
      "files": {"fit.json": "<sha256 of the file>", "report.md": "...", ...}}
+
+The ``views`` stage (each view's track as the tracker gave it, in views.h5) also keeps
+each view's own key, ``"parts": {"front": "<sha256>", ...}``, so that a view whose
+tracking reads what it read before is reused while another is tracked again.
 
 A stage is reused only when its key is the one of this run and every file it wrote is
 still there with the digest recorded: an output edited, truncated, emptied or replaced
@@ -43,7 +47,7 @@ TRACK_ALGORITHM = "track-2026.11-1"
 STAGES_FILE = "stages.json"
 #: Layout of stages.json (1: bare keys, no digests, before vidtrack 0.2.1).
 SCHEMA = 2
-_STAGES = ("tracks", "fit")
+_STAGES = ("views", "tracks", "fit")
 
 
 def utc_now():
@@ -72,7 +76,7 @@ def stage_key(stage, *, algorithm, settings=None, inputs=None):
     Parameters
     ----------
     stage : str
-        ``"tracks"`` or ``"fit"``.
+        ``"view"``, ``"views"``, ``"tracks"`` or ``"fit"``.
     algorithm : str or dict
         The version(s) of the code that computes it (:data:`FIT_ALGORITHM`,
         :func:`tracker_version`, ...), never the package's version alone.
@@ -138,7 +142,9 @@ def _valid_entry(entry):
             and isinstance(entry.get("files"), dict) and entry["files"]
             and all(isinstance(k, str) and isinstance(v, str)
                     for k, v in entry["files"].items())
-            and isinstance(entry.get("at", ""), str))
+            and isinstance(entry.get("at", ""), str)
+            and isinstance(entry.get("parts", {}), dict)
+            and all(isinstance(v, str) for v in entry.get("parts", {}).values()))
 
 
 class Stages:
@@ -235,11 +241,19 @@ class Stages:
         recorded = entry and entry["files"].get(name)
         return bool(recorded) and file_digest(self.folder / name) == recorded
 
-    def record(self, stage, key, files, *, at=None):
+    def parts(self, stage):
+        """The keys of ``stage``'s parts as recorded (``{}`` when none)."""
+        entry = self.entries.get(stage)
+        return dict(entry.get("parts", {})) if entry else {}
+
+    def record(self, stage, key, files, *, at=None, parts=None):
         """Record ``stage`` as computed now from ``key`` into ``files`` (their digests
-        taken now) and write stages.json."""
+        taken now), with the keys of its ``parts`` (a dict) when given, and write
+        stages.json."""
         self.entries[stage] = {"key": key, "at": at or utc_now(),
                                "files": {n: file_digest(self.folder / n) or "" for n in files}}
+        if parts is not None:
+            self.entries[stage]["parts"] = dict(parts)
         self.write()
 
     def drop(self, *stages):

@@ -7,10 +7,12 @@ the output folders), for every run of a command before the first is tracked.
 Only the stages a scene needs are run: the views it has, and a stage whose inputs and
 settings are unchanged is reused when its files are still the ones it wrote (its key and
 their sha256 digests kept in ``<run>/vidtrack/stages.json``, :mod:`vidtrack.run.cache`;
-``force=True`` reruns). A stage about to be computed again first removes the outputs
-it and the later stages wrote, so that a run that fails leaves nothing that looks
-current. Every output is written whole or not at all, fit.json before the reports, and
-each stage's record after its files, so an interrupted run is simply run again.
+``force=True`` reruns); each view's tracking is reused on its own, from views.h5, when
+what the tracker reads of it is unchanged. A stage about to be computed again first
+removes the outputs it and the later stages wrote, so that a run that fails leaves
+nothing that looks current. Every output is written whole or not at all, fit.json before
+the reports, and each stage's record after its files, so an interrupted run is simply
+run again.
 
 After the tracks the views are cross-checked (:mod:`vidtrack.run.checks`); inputs that
 disagree stop the run unless ``FitOptions.accept_disagreement``.
@@ -43,6 +45,9 @@ log = logging.getLogger(__name__)
 #: What each stage writes (removed before the stage is computed again).
 TABLE_FILES = ("tracks.csv", "world.csv", "xypts.csv", "xyzpts.csv", "xypts_cameras.txt")
 TRACKS_FILES = ("tracks.h5",) + TABLE_FILES
+#: Each view's track as the tracker gave it, before the corrections and the world track
+#: (the ``views`` stage: reused per view, :func:`_view_key`).
+VIEWS_FILE = "views.h5"
 REPORT_FILES = ("report.md", "report.html")
 FIT_FILES = ("fit.json",) + REPORT_FILES
 #: Largest --bootstrap and --jobs (each resample is a full refit; jobs beyond the
@@ -128,10 +133,12 @@ def _whole_or_none(out_dir, files):
         raise
 
 
-def _track_views(scene, folder, options, timings, workers, *, label_of=lambda view: None):
+def _track_views(scene, folder, options, timings, workers, *, label_of=lambda view: None,
+                 known=None):
     """Track every view of the scene in ``folder`` (a view that gives points digitized
     elsewhere is read instead, before any footage is tracked: a bad points file stops
-    the run first; :mod:`vidtrack.run.view_points`).
+    the run first; :mod:`vidtrack.run.view_points`), but those of ``known`` (view ->
+    Track, taken as they are).
 
     With two views to track and ``options.threads`` above 1 the view with the larger footage is
     tracked beside the other (:mod:`vidtrack.run._workers`): in a process of its own
@@ -157,6 +164,7 @@ def _track_views(scene, folder, options, timings, workers, *, label_of=lambda vi
         if scene.views[name].points is not None:
             with about(label_of(name), view=name):
                 tracks[name] = points_track(scene, folder, name)
+    tracks.update(known or {})
     names = [n for n in scene.view_names if n not in tracks]
     threads = options.threads or min(len(names), os.cpu_count() or 1)
     other, keep = None, False
@@ -207,8 +215,14 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, cor
     records them in ``stages`` (:class:`vidtrack.run.cache.Stages`). Before tracking
     again it removes what this stage and the fit wrote before.
 
-    Returns the tracks' key, the tracks, the world track, whether they were reused, and
-    the worker process that is to draw the report (or None).
+    The views are tracked again only where what their tracking reads changed
+    (:func:`_reused_views`): when only what the world track or the fit reads changed
+    (the run's name, a ruler, an origin...), the world track is rebuilt from the views'
+    tracks kept in views.h5.
+
+    Returns the tracks' key, the tracks, the world track, the stages reused
+    (``["tracks"]``, ``["views"]`` or ``[]``), the views whose tracks were reused from
+    views.h5, and the worker process that is to draw the report (or None).
     """
     from vidtrack.run.corrections import corrections_key
 
@@ -226,7 +240,7 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, cor
     if not options.force:
         reused = _reused_tracks(scene, out_dir, key, stages, timings, label_of(None))
         if reused is not None:
-            return key, *reused, True, None
+            return key, *reused, ["tracks"], [], None
     # tracked again: what this stage and the fit wrote before must not outlive a failure
     _remove_outputs(out_dir, stages, ("tracks", "fit"), TRACKS_FILES + FIT_FILES)
     from vidtrack.run.tracks_file import write_tracks
@@ -234,8 +248,20 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, cor
     from vidtrack.run.corrections import correct_tracks
     from vidtrack.run.reconstruct import calibration_of, reconstruct
 
+    keys = {n: _view_key(scene, folder, n) for n in scene.view_names
+            if scene.views[n].points is None}
+    known = {} if options.force else _reused_views(out_dir, keys, stages, label_of(None))
+    if set(known) != set(keys):
+        # a view to track again: views.h5 is written again whole, with the reused views
+        _remove_outputs(out_dir, stages, ("views",), (VIEWS_FILE,))
     tracks, helper = _track_views(scene, folder, options, timings, workers,
-                                  label_of=label_of)
+                                  label_of=label_of, known=known)
+    if set(known) != set(keys):
+        with _whole_or_none(out_dir, (VIEWS_FILE,)):
+            write_tracks(out_dir / VIEWS_FILE, {n: tracks[n] for n in keys},
+                         scene_hash=scene.hash, calibrated=scene.calibrated)
+            stages.record("views", stage_key("views", algorithm=tracker_version(),
+                                             inputs=keys), (VIEWS_FILE,), parts=keys)
     # the scene's exclude_frames and manual_points, before the reconstruction
     with about(label_of(None)):
         tracks = correct_tracks(tracks, corrections)
@@ -250,7 +276,51 @@ def _tracks_stage(scene, folder, out_dir, options, timings, stages, workers, cor
         write_tracks(h5, tracks, world, scene_hash=scene.hash, calibration=calibration)
         _write_tables(scene, out_dir, tracks, world)
         stages.record("tracks", key, TRACKS_FILES)
-    return key, tracks, world, False, helper
+    return key, tracks, world, ["views"] if known else [], sorted(known), helper
+
+
+def _view_key(scene, folder, name):
+    """The cache key of view ``name``'s tracking: what
+    :func:`vidtrack.run._workers.track_view` reads, and only that.
+
+    The footage (its fingerprint, not its path), the view's ``fps``, ``frames``,
+    ``channel`` and ``target``, the scene's ``[track]`` table and the tracker (its
+    version and settings). Not the run's name, the scales, origins, cameras, sync
+    frames, corrections (applied to the tracks afterwards) nor anything of the fit:
+    these are read by the later stages, whose keys hold the scene's hash.
+    """
+    view = scene.views[name]
+    return stage_key("view", algorithm=tracker_version(),
+                     settings={"tracker": TRACKER_SETTINGS, "track": scene.track},
+                     inputs={"view": name,
+                             "source": _file_fingerprint(source_of(view, scene, folder)),
+                             "fps": view.fps, "frames": view.frames, "channel": view.channel,
+                             "target": getattr(view, "target", None)})
+
+
+def _reused_views(out_dir, keys, stages, label):
+    """The views' tracks kept in views.h5 whose key is still the one in ``keys`` (view ->
+    :func:`_view_key`), as {view: Track}; none when views.h5 is not the file the
+    ``views`` stage recorded (with a note when it changed or went missing) or does not
+    read back whole."""
+    from vidtrack.run.tracks_file import read_tracks
+
+    recorded = stages.parts("views")
+    same = [n for n, k in keys.items() if recorded.get(n) == k]
+    if not same:
+        return {}
+    ok, why = stages.check("views", stages.entries["views"]["key"], (VIEWS_FILE,))
+    if not ok:
+        if why:
+            _note(f"{label}: {why}; tracking the views again")
+        return {}
+    try:
+        tf = read_tracks(Path(out_dir) / VIEWS_FILE)
+    except Exception as exc:      # noqa: BLE001 (any failure to read back: track again)
+        _note(f"{label}: {VIEWS_FILE} does not read back whole ({type(exc).__name__}: "
+              f"{exc}); tracking the views again")
+        return {}
+    return {n: tf.tracks[n] for n in same if n in tf.tracks}
 
 
 def _write_tables(scene, out_dir, tracks, world):
@@ -287,22 +357,22 @@ def _reused_tracks(scene, out_dir, key, stages, timings, label):
     h5 = Path(out_dir) / "tracks.h5"
     if not ok and not stages.changed("tracks", key, "tracks.h5"):
         if why:
-            _note(f"{label}: {why}; tracking again")
+            _note(f"{label}: {why}; making the tracks again")
         return None
     t0 = time.perf_counter()
     try:
         tf = read_tracks(h5)
     except Exception as exc:      # noqa: BLE001 (any failure to read back: track again)
         _note(f"{label}: tracks.h5 {'changed and ' if why else ''}does not read back "
-              f"whole ({type(exc).__name__}: {exc}); tracking again")
+              f"whole ({type(exc).__name__}: {exc}); making the tracks again")
         return None
     if tf.world is None or set(tf.tracks) != set(scene.view_names):
         _note(f"{label}: tracks.h5 does not hold this scene's views and world track; "
-              "tracking again")
+              "making the tracks again")
         return None
     if not ok:
         if tf.scene_hash != scene.hash:
-            _note(f"{label}: {why}, for another scene; tracking again")
+            _note(f"{label}: {why}, for another scene; making the tracks again")
             return None
         from vidtrack.run.tracks_file import views_digest
 
@@ -451,7 +521,7 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
         _note(f"{label}: {stages.problem}; computing every stage again")
     timings = {}
     t_start = time.perf_counter()
-    tracks_key, tracks, world, reused, helper = _tracks_stage(
+    tracks_key, tracks, world, reused, views_reused, helper = _tracks_stage(
         scene, folder, out_dir, options, timings, stages, workers, plan.corrections[folder],
         label_of=lambda view: plan.label(folder, view) if view else label)
     findings = list(plan.findings.get(folder, [])) + _cross_check(scene, tracks, world)
@@ -500,10 +570,17 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
         # the views' relative scale: said when the data show it (or it was not reconciled)
         _note(f"{label}: {shared.note()}")
         notes.append(shared.note())
-    if reused:      # said on stderr and kept in fit.json: the tracks are not new
+    if "tracks" in reused:      # said on stderr and kept in fit.json: the tracks are not new
         said = (f"tracks reused from {out_dir / 'tracks.h5'} (computed at "
                 f"{stages.at('tracks') or 'an earlier run'}, same scene, footage, tracker and "
                 "settings; --force tracks again)")
+        _note(f"{label}: {said}")
+        notes.append(said)
+    if views_reused:
+        said = (f"the tracks of the {' and '.join(views_reused)} "
+                f"view{'s' if len(views_reused) > 1 else ''} reused from "
+                f"{out_dir / VIEWS_FILE} (same footage, frames, fps, channel, target, tracker "
+                "and settings), the world track rebuilt from them (--force tracks again)")
         _note(f"{label}: {said}")
         notes.append(said)
     t0 = time.perf_counter()
@@ -546,7 +623,7 @@ def _fit_throw(scene, folder, out_dir, options, workers, plan, label):
         notes += [f"{name}: {n}" for n in tr.notes]
     extra = {"throw": Path(folder).name if Path(folder) != scene.folder else None,
              "views": {n: tr.to_dict() for n, tr in tracks.items()},
-             "world": world.to_dict(), "stages_reused": ["tracks"] if reused else [],
+             "world": world.to_dict(), "stages_reused": reused,
              "checks": [f.to_dict() for f in findings], "notes": notes}
     if scale_part is not None:
         extra["calibration"] = scale_part.to_dict()

@@ -41,7 +41,7 @@ __all__ = ["OUT_DIR", "RUN_OUTPUTS", "RunPlan", "prepare_run", "about", "where",
 
 OUT_DIR = "vidtrack"
 #: The files a run (or a throw) writes into its output folder.
-RUN_OUTPUTS = ("tracks.h5", "tracks.csv", "world.csv", "fit.json", "report.md",
+RUN_OUTPUTS = ("views.h5", "tracks.h5", "tracks.csv", "world.csv", "fit.json", "report.md",
                "report.html", "stages.json")
 
 

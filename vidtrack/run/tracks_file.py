@@ -185,7 +185,8 @@ def views_digest(tracks):
     return h.hexdigest()
 
 
-def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
+def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None,
+                 calibrated=None):
     """Write ``tracks.h5`` atomically.
 
     Parameters
@@ -202,6 +203,9 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
     calibration : object, keyword-only
         What calibration was used (JSON-able: e.g. each view's mapping ``to_dict()``),
         stored as JSON text.
+    calibrated : bool, keyword-only, optional
+        Whether the views are calibrated cameras (any plain name, not only ``front``
+        and ``top``); default: as ``world`` says (without a world track: not).
 
     Returns
     -------
@@ -219,7 +223,7 @@ def write_tracks(path, tracks, world=None, *, scene_hash="", calibration=None):
     from vidtrack.track.tracker import FLAGS, OPTIONAL_COLUMNS
 
     path = Path(path)
-    calibrated = _is_calibrated(world)
+    calibrated = _is_calibrated(world) if calibrated is None else calibrated
     _check_tracks(tracks, "tracks.h5", calibrated=calibrated)
     import io
 
