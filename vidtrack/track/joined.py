@@ -198,7 +198,7 @@ def hold_profile(chain, bars, settings, measure, keep, *, after=0):
     dev = along - trend[:, 0]
     z = dev / robust_scale(dev, floor=settings.profile_floor)
     done = []
-    for j in np.flatnonzero(np.abs(z) > settings.k_flag):
+    for j in np.flatnonzero(z > settings.k_flag):
         i = int(barred[j])
         if not np.isfinite(trend[j]).all():
             continue
@@ -208,7 +208,7 @@ def hold_profile(chain, bars, settings, measure, keep, *, after=0):
             continue
         shift = ((got.u - chain.u[i]) * np.cos(b[j, 4])
                  + (got.v - chain.v[i]) * np.sin(b[j, 4]))
-        if abs(shift) < ONE_END * abs(b[j, 0] - got.bar[0]):
+        if abs(shift) < ONE_END * (b[j, 0] - got.bar[0]):
             continue
         keep(i, got)
         done.append(i)
