@@ -208,10 +208,6 @@ def trajectory_html(sources, tracks, paths, *, scenes=None):
     (list of str, list of str)
         An ``<img>`` per view shown, and notes (frames that could not be read).
     """
-    import base64
-
-    import cv2
-
     from vidtrack.report import _html
 
     imgs, notes = [], []
@@ -227,13 +223,7 @@ def trajectory_html(sources, tracks, paths, *, scenes=None):
         img, _ = trajectory_image(src[frame_no], d, row, path=paths.get(name),
                                   scene=(scenes or {}).get(name), view=name,
                                   bit_depth=src.bit_depth)
-        ok, png = cv2.imencode(".png", img,
-                               [cv2.IMWRITE_PNG_COMPRESSION, _html.PNG_COMPRESS_LEVEL])
-        if not ok:                               # pragma: no cover (OpenCV's own failure)
-            raise RuntimeError("OpenCV could not encode the trajectory as PNG")
-        data = base64.b64encode(png.tobytes()).decode("ascii")
-        imgs.append(f'<img alt="trajectory {_html.esc(name)}" '
-                    f'src="data:image/png;base64,{data}">')
+        imgs.append(_html.img(_html.encode_png(img), alt=f"trajectory {name}"))
     return imgs, notes
 
 
