@@ -70,16 +70,31 @@ def figure(w, h):
 
 
 def few_ticks(fig, nbins=4):
-    """At most ``nbins`` intervals between major ticks on every axis of ``fig``.
+    """At most ``nbins`` intervals between major ticks on every axis of ``fig``, and no
+    tick made that is not drawn.
 
-    Ticks are most of what drawing a small plot costs (each is two lines and a label):
-    4 instead of matplotlib's 5 to 9 draws a six-panel figure about 30 % faster.
+    Ticks are most of what drawing a small plot costs (each is three lines and two
+    labels, made at the first draw): 4 intervals instead of matplotlib's 5 to 9 draws a
+    six-panel figure about 30 % faster. matplotlib's locators also give a tick beyond
+    each end of the axis, made, placed and labelled but not drawn (40 of run42's 103).
     """
+    import numpy as np
     from matplotlib.ticker import MaxNLocator
 
+    class ShownTicks(MaxNLocator):
+        """MaxNLocator's ticks within the axis's view (all of them where fewer than two
+        are: the labels' format is chosen from the ticks given)."""
+
+        def __call__(self):
+            locs = np.asarray(super().__call__())
+            lo, hi = sorted(self.axis.get_view_interval())
+            slack = 1e-10 * (hi - lo)      # as matplotlib decides which ticks to draw
+            shown = locs[(locs >= lo - slack) & (locs <= hi + slack)]
+            return shown if shown.size >= 2 else locs
+
     for ax in fig.axes:
-        ax.xaxis.set_major_locator(MaxNLocator(nbins))
-        ax.yaxis.set_major_locator(MaxNLocator(nbins))
+        ax.xaxis.set_major_locator(ShownTicks(nbins))
+        ax.yaxis.set_major_locator(ShownTicks(nbins))
     return fig
 
 
