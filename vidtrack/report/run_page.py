@@ -267,6 +267,7 @@ def with_contact_sheet(html, section):
     return html.replace("</body>", section + "</body>", 1)
 
 
+@_html.without_gc
 def render_html(record, *, fit=None, world=None, views=None, tracks_img=None, curves=None,
                 contact_sheet=None, px_residuals=None):
     """report.html: the tables of report.md and the plots, self-contained.
