@@ -250,6 +250,7 @@ def _calibrated_plot(world):
     return _html.few_ticks(fig)
 
 
+@_html.without_gc                 # also drawn alone, by the process that tracked a view
 def tracks_image(views):
     """The tracks-over-frames plot as an inline ``<img>`` (``views``: {view: rows})."""
     return _html.png(_track_plot(views), alt="tracks")
