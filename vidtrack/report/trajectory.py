@@ -164,7 +164,7 @@ def trajectory_image(frame, track, row, *, path=None, scene=None, view="", bit_d
         The drawn BGR image and its scale: frame pixel (u, v) is image pixel
         ``((u + 0.5) * scale - 0.5, (v + 0.5) * scale - 0.5)``.
     """
-    from vidtrack.report.overlay import camera_shifts, draw_frame, draw_marks, to_bgr8
+    from vidtrack.report.overlay import camera_shifts, draw_frame, draw_rings, to_bgr8
 
     cols = frame.shape[1]
     scale = float(min(MAX_TRAJECTORY_SCALE, TRAJECTORY_WIDTH_PX / max(cols, 1)))
@@ -174,10 +174,8 @@ def trajectory_image(frame, track, row, *, path=None, scene=None, view="", bit_d
     uv = np.column_stack([np.asarray(track["u_px"], dtype=np.float64),
                           np.asarray(track["v_px"], dtype=np.float64)])
     flags = np.asarray(track["flags"], dtype=np.int64)
-    for k in np.flatnonzero(np.all(np.isfinite(uv), axis=1)):
-        if k != row:
-            draw_marks(img, measured=uv[k] + sh, flags=int(flags[k]), scale=scale,
-                       radius=POINT_RADIUS_PX)
+    others = np.arange(len(uv)) != row
+    draw_rings(img, uv[others] + sh, flags[others], scale=scale, radius=POINT_RADIUS_PX)
     frame_no = int(np.asarray(track["frame"])[row])
     t_s = float(np.asarray(track["t_s"], dtype=np.float64)[row])
     polyline = fitted = None
