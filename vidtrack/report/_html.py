@@ -158,8 +158,18 @@ def png_bytes(fig, *, dpi=90):
 
 
 def encode_png(image):
-    """An image (8-bit grey, BGR or BGRA, as OpenCV holds it) as PNG bytes, at
-    :data:`PNG_COMPRESS_LEVEL` with the "up" row filter."""
+    """An image as PNG bytes, at :data:`PNG_COMPRESS_LEVEL` with the "up" row filter.
+
+    Parameters
+    ----------
+    image : numpy.ndarray
+        8-bit grey, BGR or BGRA, as OpenCV holds it.
+
+    Returns
+    -------
+    bytes
+        The PNG file's bytes (lossless: decoded, the same pixels).
+    """
     import cv2
 
     ok, data = cv2.imencode(".png", image, [cv2.IMWRITE_PNG_COMPRESSION, PNG_COMPRESS_LEVEL,
@@ -170,7 +180,20 @@ def encode_png(image):
 
 
 def img(data, *, alt="plot"):
-    """PNG bytes as an inline ``<img>`` (base64)."""
+    """PNG bytes as an inline ``<img>``.
+
+    Parameters
+    ----------
+    data : bytes
+        A PNG file's bytes (:func:`encode_png`).
+    alt : str
+        The image's alternative text (escaped here).
+
+    Returns
+    -------
+    str
+        ``<img alt="..." src="data:image/png;base64,...">``.
+    """
     text = base64.b64encode(data).decode("ascii")
     return f'<img alt="{esc(alt)}" src="data:image/png;base64,{text}">'
 
