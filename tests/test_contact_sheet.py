@@ -114,3 +114,34 @@ def test_footage_gone_is_said(fitted, tmp_path):
     assert "<h2>Contact sheet</h2>" in html and "No footage to show" in html
     assert "<img" not in html
     assert Path(fitted / "front.avi").is_file()
+
+
+def test_footage_frames_read_once_in_order(fitted, monkeypatch):
+    """footage_html reads each frame it shows once per view, in increasing order (the
+    first read of a video decodes from its start), and shows what reading them where
+    they are drawn shows."""
+    from vidtrack.footage.video import VideoSource
+    from vidtrack.report.trajectory import footage_html, read_ahead
+
+    scene, tracks, paths, sources = _inputs(fitted)
+    for s in sources.values():
+        s.close()
+    reads = []
+    own = VideoSource._read_file_frame
+
+    def recorded(self, k):
+        reads.append((self.path.name, k))
+        return own(self, k)
+
+    monkeypatch.setattr(VideoSource, "_read_file_frame", recorded)
+    html = footage_html(scene, scene.folder, tracks, paths)
+    assert reads
+    for name in {n for n, _ in reads}:
+        frames = [k for n, k in reads if n == name]
+        assert frames == sorted(set(frames))
+    # the same page when every frame is read where it is drawn
+    import vidtrack.report.trajectory as trajectory
+
+    monkeypatch.setattr(trajectory, "read_ahead", lambda sources, frames: sources)
+    assert footage_html(scene, scene.folder, tracks, paths) == html
+    assert read_ahead({}, {}) == {}

@@ -388,3 +388,18 @@ def test_bad_trail_exit_2(tmp_path, vidtrack_cli):
     res = vidtrack_cli("overlay", run, "--trail", "-1")
     assert res.returncode == 2
     assert res.stderr.strip().splitlines() == [res.stderr.strip()] and "--trail -1" in res.stderr
+
+
+def test_draw_rings_is_draw_marks_point_by_point():
+    from vidtrack.report.overlay import FLAG_COLOURS, draw_marks, draw_rings
+
+    rng = np.random.default_rng(3)
+    points = rng.uniform(0, 60, (40, 2))
+    points[[3, 17]] = np.nan                      # nothing measured: nothing drawn
+    flags = rng.choice([0, *FLAG_COLOURS], 40)
+    one = np.zeros((130, 130, 3), np.uint8)
+    for p, f in zip(points, flags):
+        draw_marks(one, measured=p, flags=int(f), scale=2.0, offset=(1.0, -2.0), radius=2.5)
+    many = np.zeros_like(one)
+    draw_rings(many, points, flags, scale=2.0, offset=(1.0, -2.0), radius=2.5)
+    assert one.any() and np.array_equal(one, many)

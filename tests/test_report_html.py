@@ -48,3 +48,45 @@ def test_a_transparent_plot_keeps_its_alpha_and_the_figure_its_dpi():
     reference = _savefig_rgba(_plot(transparent=True), 90)
     assert image.shape[2] == 4 and (reference[..., 3] < 255).any()
     assert np.array_equal(cv2.cvtColor(image, cv2.COLOR_BGRA2RGBA), reference)
+
+
+def test_few_ticks_makes_only_the_drawn_ticks_and_the_same_pixels():
+    from matplotlib.ticker import MaxNLocator
+
+    plain = _plot()
+    for ax in plain.axes:
+        ax.xaxis.set_major_locator(MaxNLocator(4))
+        ax.yaxis.set_major_locator(MaxNLocator(4))
+    fig = _plot()
+    assert _html.png_bytes(fig) == _html.png_bytes(plain)
+    for axis in (fig.axes[0].xaxis, fig.axes[0].yaxis):
+        lo, hi = sorted(axis.get_view_interval())
+        locs = axis.get_majorticklocs()
+        assert len(locs) >= 2 and ((locs >= lo) & (locs <= hi)).all()
+        assert len(axis.majorTicks) == len(locs)
+    assert sum(len(a.majorTicks) for a in (plain.axes[0].xaxis, plain.axes[0].yaxis)) > \
+        sum(len(a.majorTicks) for a in (fig.axes[0].xaxis, fig.axes[0].yaxis))
+
+
+@pytest.mark.parametrize("enabled", [True, False])
+def test_without_gc_pauses_the_collector_and_restores_it(enabled):
+    import gc
+
+    seen = []
+
+    @_html.without_gc
+    def draw(fail=False):
+        seen.append(gc.isenabled())
+        if fail:
+            raise ValueError("drawing failed")
+        return "page"
+
+    was = gc.isenabled()
+    try:
+        (gc.enable if enabled else gc.disable)()
+        assert draw() == "page"
+        with pytest.raises(ValueError):
+            draw(fail=True)
+        assert seen == [False, False] and gc.isenabled() == enabled
+    finally:
+        (gc.enable if was else gc.disable)()

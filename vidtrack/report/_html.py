@@ -1,6 +1,8 @@
 """Self-contained HTML reports: one page style, escaped text, tables, inline PNG plots."""
 
 import base64
+import functools
+import gc
 import html
 from datetime import datetime, timezone
 
@@ -51,9 +53,44 @@ def table(headers, rows, *, left=1, classes=None):
 #: (5 to 10 % of drawing a small plot). The plots here have nothing above their axes
 #: (no top ticks or labels), so the title goes where it went before.
 TITLE_Y = 1.0
-#: zlib level of the inline PNGs: run42's fitted-curves plot is encoded as RGB at 3 in
-#: 9.7 ms (68 kB), where matplotlib's savefig (RGBA at 6) took 17 ms (67 kB).
-PNG_COMPRESS_LEVEL = 3
+#: zlib level and row filter of the inline PNGs (plots and footage): each row stored as
+#: its difference from the row above ("up"; libpng's default tries five filters on every
+#: row): run42's six images (three plots, two trajectories, the contact sheet) take
+#: 24 ms and 482 kB, where level 3 with libpng's filters for five of them and OpenCV's
+#: defaults for the sheet took 45 ms and 523 kB.
+PNG_COMPRESS_LEVEL = 2
+
+
+def without_gc(fn):
+    """``fn`` run with Python's cyclic garbage collector paused (enabled again after, if
+    it was).
+
+    Drawing a page makes many small matplotlib objects (and the first time imports
+    matplotlib, some 70 000 objects), and a collection they set off looks at every object
+    of the process, the pipeline's too: run42's report stage spent 40 to 55 ms in them of
+    its first two calls, 20 ms paused. What the page leaves unreachable is collected by
+    the next collection after.
+
+    Parameters
+    ----------
+    fn : callable
+
+    Returns
+    -------
+    callable
+        ``fn``, with the collector paused while it runs.
+    """
+    @functools.wraps(fn)
+    def paused(*args, **kwargs):
+        was = gc.isenabled()
+        gc.disable()
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            if was:
+                gc.enable()
+
+    return paused
 
 
 def figure(w, h):
@@ -67,16 +104,31 @@ def figure(w, h):
 
 
 def few_ticks(fig, nbins=4):
-    """At most ``nbins`` intervals between major ticks on every axis of ``fig``.
+    """At most ``nbins`` intervals between major ticks on every axis of ``fig``, and no
+    tick made that is not drawn.
 
-    Ticks are most of what drawing a small plot costs (each is two lines and a label):
-    4 instead of matplotlib's 5 to 9 draws a six-panel figure about 30 % faster.
+    Ticks are most of what drawing a small plot costs (each is three lines and two
+    labels, made at the first draw): 4 intervals instead of matplotlib's 5 to 9 draws a
+    six-panel figure about 30 % faster. matplotlib's locators also give a tick beyond
+    each end of the axis, made, placed and labelled but not drawn (40 of run42's 103).
     """
+    import numpy as np
     from matplotlib.ticker import MaxNLocator
 
+    class ShownTicks(MaxNLocator):
+        """MaxNLocator's ticks within the axis's view (all of them where fewer than two
+        are: the labels' format is chosen from the ticks given)."""
+
+        def __call__(self):
+            locs = np.asarray(super().__call__())
+            lo, hi = sorted(self.axis.get_view_interval())
+            slack = 1e-10 * (hi - lo)      # as matplotlib decides which ticks to draw
+            shown = locs[(locs >= lo - slack) & (locs <= hi + slack)]
+            return shown if shown.size >= 2 else locs
+
     for ax in fig.axes:
-        ax.xaxis.set_major_locator(MaxNLocator(nbins))
-        ax.yaxis.set_major_locator(MaxNLocator(nbins))
+        ax.xaxis.set_major_locator(ShownTicks(nbins))
+        ax.yaxis.set_major_locator(ShownTicks(nbins))
     return fig
 
 
@@ -102,16 +154,53 @@ def png_bytes(fig, *, dpi=90):
         image = cv2.cvtColor(rgba, cv2.COLOR_RGBA2BGR if opaque else cv2.COLOR_RGBA2BGRA)
     finally:
         fig.set_dpi(own)
-    ok, data = cv2.imencode(".png", image, [cv2.IMWRITE_PNG_COMPRESSION, PNG_COMPRESS_LEVEL])
+    return encode_png(image)
+
+
+def encode_png(image):
+    """An image as PNG bytes, at :data:`PNG_COMPRESS_LEVEL` with the "up" row filter.
+
+    Parameters
+    ----------
+    image : numpy.ndarray
+        8-bit grey, BGR or BGRA, as OpenCV holds it.
+
+    Returns
+    -------
+    bytes
+        The PNG file's bytes (lossless: decoded, the same pixels).
+    """
+    import cv2
+
+    ok, data = cv2.imencode(".png", image, [cv2.IMWRITE_PNG_COMPRESSION, PNG_COMPRESS_LEVEL,
+                                            cv2.IMWRITE_PNG_FILTER, cv2.IMWRITE_PNG_FILTER_UP])
     if not ok:                                   # pragma: no cover (OpenCV's own failure)
-        raise RuntimeError("OpenCV could not encode the figure as PNG")
+        raise RuntimeError("OpenCV could not encode the image as PNG")
     return data.tobytes()
+
+
+def img(data, *, alt="plot"):
+    """PNG bytes as an inline ``<img>``.
+
+    Parameters
+    ----------
+    data : bytes
+        A PNG file's bytes (:func:`encode_png`).
+    alt : str
+        The image's alternative text (escaped here).
+
+    Returns
+    -------
+    str
+        ``<img alt="..." src="data:image/png;base64,...">``.
+    """
+    text = base64.b64encode(data).decode("ascii")
+    return f'<img alt="{esc(alt)}" src="data:image/png;base64,{text}">'
 
 
 def png(fig, *, alt="plot"):
     """The figure as an inline ``<img>`` (base64 PNG)."""
-    data = base64.b64encode(png_bytes(fig)).decode("ascii")
-    return f'<img alt="{esc(alt)}" src="data:image/png;base64,{data}">'
+    return img(png_bytes(fig), alt=alt)
 
 
 def page(title, body_parts, *, subtitle=""):

@@ -246,10 +246,6 @@ def contact_sheet_html(scene, folder, tracks, paths, *, sources=None, missing=()
     ``sources``, ``missing``: the views already opened and why the others were not
     (:func:`open_views`; the caller closes them), else they are opened and closed here.
     """
-    import base64
-
-    import cv2
-
     from vidtrack.report import _html
 
     head = "<h2>Contact sheet</h2>"
@@ -267,12 +263,10 @@ def contact_sheet_html(scene, folder, tracks, paths, *, sources=None, missing=()
                 s.close()
     if not crops:
         return head + '<p class="note">No frame to show.</p>'
-    ok, png = cv2.imencode(".png", sheet_image(crops))
-    data = base64.b64encode(png.tobytes()).decode("ascii")
     parts = [head, "<p>Crops of the footage round the straw: frames spread over the flight, "
              "then one example of every flag in the run. Ring: the measured centroid, green "
              "when unflagged, else the colour of the first flag named; white line: the "
              "fitted path, white cross: the frame's fitted point.</p>",
-             f'<img alt="contact sheet" src="data:image/png;base64,{data}">']
+             _html.img(_html.encode_png(sheet_image(crops)), alt="contact sheet")]
     parts += [f'<p class="note">{_html.esc(n)}</p>' for n in missing + notes]
     return "".join(parts)

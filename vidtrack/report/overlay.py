@@ -32,8 +32,8 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["FLAG_COLOURS", "OK_COLOUR", "PATH_COLOUR", "TRAIL_COLOUR", "SCENE_COLOUR",
-           "flag_colour", "flag_text", "to_bgr8", "draw_frame", "draw_marks", "draw_trail",
-           "draw_banner", "SceneMarks", "scene_marks", "draw_scene", "write_overlay",
+           "flag_colour", "flag_text", "to_bgr8", "draw_frame", "draw_marks", "draw_rings",
+           "draw_trail", "draw_banner", "SceneMarks", "scene_marks", "draw_scene", "write_overlay",
            "OverlayResult", "MAX_SCALE", "MIN_SCALE", "MAX_EVERY", "TRAIL_FRAMES", "MAX_TRAIL"]
 
 #: Colour (B, G, R) of an unflagged frame's marker.
@@ -166,10 +166,36 @@ def draw_marks(img, *, measured, flags, path=None, fitted=None, scale=1.0,
         arm = 0.6 * radius
         for d in ((arm, 0), (0, arm)):
             cv2.line(img, _pt(c - d), _pt(c + d), PATH_COLOUR, 1, cv2.LINE_AA, _SHIFT)
-    if measured is not None and np.all(np.isfinite(measured)):
-        c = _to_image(measured, scale, offset)
-        cv2.circle(img, _pt(c), int(round(radius * _ONE)), flag_colour(flags), 2,
-                   cv2.LINE_AA, _SHIFT)
+    if measured is not None:
+        draw_rings(img, [measured], [flags], scale=scale, offset=offset, radius=radius)
+
+
+def draw_rings(img, points, flags, *, scale=1.0, offset=(0.0, 0.0), radius=None):
+    """Draw measured points as rings in their flag colours, in order, as
+    :func:`draw_marks` draws a frame's measured point.
+
+    Parameters
+    ----------
+    img : numpy.ndarray
+        BGR image, drawn in place.
+    points : (N, 2) array
+        Measured points in frame pixels (rows with NaN: nothing drawn).
+    flags : (N,) array of int
+        Each point's flag bits (its ring's colour).
+    scale, offset, radius
+        As for :func:`draw_marks`.
+    """
+    import cv2
+
+    if radius is None:
+        radius = max(5.0, min(img.shape[:2]) / 40.0)
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    ok = np.all(np.isfinite(pts), axis=1)
+    # all at once, rounded as _pt rounds one (half to even)
+    centres = np.rint(_to_image(pts[ok], scale, offset) * _ONE).astype(np.int64)
+    r = int(round(radius * _ONE))
+    for (x, y), bits in zip(centres.tolist(), np.asarray(flags)[ok].tolist()):
+        cv2.circle(img, (x, y), r, flag_colour(bits), 2, cv2.LINE_AA, _SHIFT)
 
 
 def draw_trail(img, points, *, scale=1.0, offset=(0.0, 0.0), radius=None):

@@ -250,6 +250,7 @@ def _calibrated_plot(world):
     return _html.few_ticks(fig)
 
 
+@_html.without_gc                 # also drawn alone, by the process that tracked a view
 def tracks_image(views):
     """The tracks-over-frames plot as an inline ``<img>`` (``views``: {view: rows})."""
     return _html.png(_track_plot(views), alt="tracks")
@@ -267,6 +268,7 @@ def with_contact_sheet(html, section):
     return html.replace("</body>", section + "</body>", 1)
 
 
+@_html.without_gc
 def render_html(record, *, fit=None, world=None, views=None, tracks_img=None, curves=None,
                 contact_sheet=None, px_residuals=None):
     """report.html: the tables of report.md and the plots, self-contained.

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["PixelResiduals", "pixel_residuals", "pick_trajectory_frame", "trajectory_image",
-           "trajectory_html", "footage_html", "POINT_RADIUS_PX", "TRAJECTORY_WIDTH_PX",
-           "MAX_TRAJECTORY_SCALE"]
+           "trajectory_html", "footage_html", "read_ahead", "POINT_RADIUS_PX",
+           "TRAJECTORY_WIDTH_PX", "MAX_TRAJECTORY_SCALE"]
 
 #: The drawn frame's width (image px) the footage is scaled to, at most
 #: :data:`MAX_TRAJECTORY_SCALE` times its own size (a 400 px wide view is drawn 800 wide,
@@ -164,7 +164,7 @@ def trajectory_image(frame, track, row, *, path=None, scene=None, view="", bit_d
         The drawn BGR image and its scale: frame pixel (u, v) is image pixel
         ``((u + 0.5) * scale - 0.5, (v + 0.5) * scale - 0.5)``.
     """
-    from vidtrack.report.overlay import camera_shifts, draw_frame, draw_marks, to_bgr8
+    from vidtrack.report.overlay import camera_shifts, draw_frame, draw_rings, to_bgr8
 
     cols = frame.shape[1]
     scale = float(min(MAX_TRAJECTORY_SCALE, TRAJECTORY_WIDTH_PX / max(cols, 1)))
@@ -174,10 +174,8 @@ def trajectory_image(frame, track, row, *, path=None, scene=None, view="", bit_d
     uv = np.column_stack([np.asarray(track["u_px"], dtype=np.float64),
                           np.asarray(track["v_px"], dtype=np.float64)])
     flags = np.asarray(track["flags"], dtype=np.int64)
-    for k in np.flatnonzero(np.all(np.isfinite(uv), axis=1)):
-        if k != row:
-            draw_marks(img, measured=uv[k] + sh, flags=int(flags[k]), scale=scale,
-                       radius=POINT_RADIUS_PX)
+    others = np.arange(len(uv)) != row
+    draw_rings(img, uv[others] + sh, flags[others], scale=scale, radius=POINT_RADIUS_PX)
     frame_no = int(np.asarray(track["frame"])[row])
     t_s = float(np.asarray(track["t_s"], dtype=np.float64)[row])
     polyline = fitted = None
@@ -208,10 +206,6 @@ def trajectory_html(sources, tracks, paths, *, scenes=None):
     (list of str, list of str)
         An ``<img>`` per view shown, and notes (frames that could not be read).
     """
-    import base64
-
-    import cv2
-
     from vidtrack.report import _html
 
     imgs, notes = [], []
@@ -227,20 +221,15 @@ def trajectory_html(sources, tracks, paths, *, scenes=None):
         img, _ = trajectory_image(src[frame_no], d, row, path=paths.get(name),
                                   scene=(scenes or {}).get(name), view=name,
                                   bit_depth=src.bit_depth)
-        ok, png = cv2.imencode(".png", img,
-                               [cv2.IMWRITE_PNG_COMPRESSION, _html.PNG_COMPRESS_LEVEL])
-        if not ok:                               # pragma: no cover (OpenCV's own failure)
-            raise RuntimeError("OpenCV could not encode the trajectory as PNG")
-        data = base64.b64encode(png.tobytes()).decode("ascii")
-        imgs.append(f'<img alt="trajectory {_html.esc(name)}" '
-                    f'src="data:image/png;base64,{data}">')
+        imgs.append(_html.img(_html.encode_png(img), alt=f"trajectory {name}"))
     return imgs, notes
 
 
 def footage_html(scene, folder, tracks, paths):
     """The report's sections drawn on the footage: the trajectory over a full frame of
     each view (:func:`trajectory_html`), then the contact sheet
-    (:func:`vidtrack.report.contact_sheet.contact_sheet_html`), the footage opened once.
+    (:func:`vidtrack.report.contact_sheet.contact_sheet_html`), the footage opened once
+    and the frames both show read once, in increasing order (:func:`read_ahead`).
 
     Parameters
     ----------
@@ -264,6 +253,7 @@ def footage_html(scene, folder, tracks, paths):
     opened, missing = open_views(scene, folder, tracks)
     try:
         if opened:
+            opened = read_ahead(opened, _shown_frames(opened, tracks, paths))
             marks = {n: scene_marks(scene.views[n], s.shape) for n, s in opened.items()}
             imgs, notes = trajectory_html(opened, tracks, paths, scenes=marks)
             part = [head, "<p>One frame of each view near the middle of the flight with "
@@ -282,3 +272,66 @@ def footage_html(scene, folder, tracks, paths):
         for s in opened.values():
             s.close()
     return "".join(part) + sheet
+
+
+def _shown_frames(sources, tracks, paths):
+    """{view: file frames} that :func:`footage_html` shows of each view with footage:
+    the trajectory's frame and the contact sheet's."""
+    from vidtrack.report.contact_sheet import pick_frames
+
+    shown = {n: d for n, d in tracks.items() if n in sources}
+    out = {n: [] for n in shown}
+    for name, d in shown.items():
+        row = pick_trajectory_frame(d, paths.get(name))
+        if row is not None:
+            out[name].append(int(np.asarray(d["frame"])[row]))
+    for name, row, _ in pick_frames(shown, paths):
+        out[name].append(int(np.asarray(shown[name]["frame"])[row]))
+    return out
+
+
+class _ReadAhead:
+    """A view's footage with some frames read already: ``src[i]`` gives those without
+    reading them again; the rest, ``len`` and the attributes are the source's."""
+
+    def __init__(self, source, frames):
+        self._source = source
+        self._frames = frames
+
+    def __getattr__(self, name):
+        return getattr(self._source, name)
+
+    def __len__(self):
+        return len(self._source)
+
+    def __getitem__(self, i):
+        return self._frames[i] if i in self._frames else self._source[i]
+
+
+def read_ahead(sources, frames):
+    """Each view's ``frames`` read once, in increasing order, and the views' footage
+    giving them without reading them again.
+
+    A video decodes on from where it stands (to a frame a few ahead) or seeks; the first
+    read decodes from the start to check that seeking is exact. Read in increasing order,
+    the earliest frame shown is that first read, not a frame in the middle of the flight.
+
+    Parameters
+    ----------
+    sources : dict of str to FrameSource
+        The views with footage, opened on the whole file (the caller closes them).
+    frames : dict of str to list of int
+        File frames of each view to read; those outside the footage are left to the
+        caller (who says so).
+
+    Returns
+    -------
+    dict of str to FrameSource-like
+        ``src[i]``, ``len(src)`` and the attributes (``bit_depth``, ``shape``) of each
+        view's footage.
+    """
+    out = {}
+    for name, src in sources.items():
+        wanted = sorted({k for k in frames.get(name, ()) if 0 <= k < len(src)})
+        out[name] = _ReadAhead(src, {k: src[k] for k in wanted})
+    return out
