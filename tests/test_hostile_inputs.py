@@ -805,10 +805,13 @@ def fitted_run(name="run", run_name=None):
     Another ``run_name`` is the run fitted under its own name, renamed and fitted again
     (the views' tracks reused from views.h5, the world track and the fit made again)."""
     def setup(w):
+        import atexit
         import tempfile
 
         if run_name not in _FITTED:
-            base = Path(tempfile.mkdtemp(prefix="vidtrack-fitted-")) / "run"
+            root = Path(tempfile.mkdtemp(prefix="vidtrack-fitted-"))
+            atexit.register(shutil.rmtree, root, True)
+            base = root / "run"
             if run_name is None:
                 run42_copy("run", drop=("vidtrack", "truth.json", MARKER))(base.parent)
             else:
