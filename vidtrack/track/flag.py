@@ -59,7 +59,8 @@ from vidtrack.track._flags import (APPEARANCE, BORDER, LOST, MERGED, OUTLIER, PR
 from vidtrack.track.choose import MAJORITY
 from vidtrack.track.joined import size_z
 from vidtrack.track.measure import residual_outliers
-from vidtrack.track.path import local_quadratic, neighbour_median, robust_scale, runs
+from vidtrack.track.path import (clean_side, local_quadratic, neighbour_median, robust_scale,
+                                 runs)
 from vidtrack.track.release import find_release as release_knot
 
 __all__ = ["judge", "REASONS", "REASON_COLUMN", "reason_codes"]
@@ -298,8 +299,9 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
         misfit), NaN where it was not measured by one.
     foot : numpy.ndarray, optional
         Per frame, the rod's bar's misfit over its footprint alone, NaN where it was not
-        measured by one: touched beyond ``k_flag`` robust scatters of the chain's (at
-        least ``footprint_floor``) above their median.
+        measured by one: touched beyond ``k_flag`` scatters (at least
+        ``footprint_floor``) above the centre of the chain's clean side
+        (:func:`vidtrack.track.path.clean_side`).
     joined : numpy.ndarray of int, optional
         Frame positions where a rod was followed by its model into what it is joined to
         (:mod:`vidtrack.track.joined`): touched where their detection's size exceeds the
@@ -358,7 +360,11 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
         hidden |= narrow
     if foot is not None:
         # (the bar misfits its own pixels: part of the rod hidden, or something on it)
-        touched |= residual_outliers(foot[idx], settings, floor=settings.footprint_floor)
+        # (judged against its clean side: what touches a rod only raises it, and a straw
+        # over the rotor or crossing another raises half a chain's)
+        centre, scale = clean_side(foot[idx], floor=settings.footprint_floor)
+        with np.errstate(invalid="ignore"):
+            touched |= foot[idx] > centre + settings.k_flag * scale
     if joined is not None and len(joined):
         # (a frame followed by the rod's model: its length and width are the flight's,
         # held; its detection, grown beyond the flight's, is what it is joined to)

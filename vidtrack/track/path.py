@@ -15,7 +15,7 @@ import numpy as np
 from vidtrack.track.background import MAD_TO_SIGMA
 
 __all__ = ["local_quadratic", "robust_trend", "neighbour_median", "robust_scale",
-           "extrapolate", "runs", "MAD_TO_SIGMA", "TUKEY"]
+           "clean_side", "extrapolate", "runs", "MAD_TO_SIGMA", "TUKEY"]
 
 #: Tukey's biweight tuning constant (in robust sigmas of the residuals).
 TUKEY = 4.685
@@ -28,6 +28,30 @@ def robust_scale(x, *, floor=0.0):
     if x.size == 0:
         return float(floor)
     return max(float(MAD_TO_SIGMA * np.median(np.abs(x - np.median(x)))), float(floor))
+
+
+#: :func:`clean_side` reads a normal law's centre and scatter off these two quantiles of
+#: the values, and their standard normal quantiles.
+CLEAN_QUANTILES = (0.1, 0.3)
+_CLEAN_Z = (-1.2815515655446004, -0.5244005127080407)
+
+
+def clean_side(x, *, floor=0.0):
+    """The centre and scatter of the clean values among ``x`` where what disturbs them
+    only raises them (a misfit: what touches an object adds to it, nothing takes from
+    it): a normal law through the values' 10th and 30th percentiles
+    (:data:`CLEAN_QUANTILES`). A share ``s`` of the values raised moves them to the
+    clean values' ``0.1 / (1 - s)`` and ``0.3 / (1 - s)`` quantiles: the centre 0.4 of
+    the clean scatter high at 30 % raised, 1.7 at 60 %, where the median is at the clean
+    values' 71st percentile and at their largest. The scatter is at least ``floor``;
+    (NaN, ``floor``) without finite values."""
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return float("nan"), float(floor)
+    lo, hi = np.quantile(x, CLEAN_QUANTILES)
+    scale = (hi - lo) / (_CLEAN_Z[1] - _CLEAN_Z[0])
+    return float(hi - _CLEAN_Z[1] * scale), max(float(scale), float(floor))
 
 
 def runs(mask):

@@ -16,7 +16,7 @@ from vidtrack.errors import VidtrackError
 __all__ = ["TrackerSettings", "ALGORITHM_VERSION"]
 
 #: Changes whenever the flight tracker's results may change for the same settings.
-ALGORITHM_VERSION = "flight-19"
+ALGORITHM_VERSION = "flight-20"
 
 
 @dataclass(frozen=True)
@@ -124,9 +124,10 @@ class TrackerSettings:
     footprint_floor : float
         The smallest scatter of a rod's misfit over its own footprint (its bar's RMS
         residual there over its coverage, its ends' caps apart) that the misfit test
-        divides by: with ``k_flag`` 5, a frame 0.05 above the chain's median is flagged
-        (touched). Measured scatter: synthetic straws 0.006-0.014; a straw coming out from
-        behind a post, 3 % of it hidden at an end, 0.11 over the median.
+        divides by: with ``k_flag`` 5, a frame 0.05 above the centre of the chain's clean
+        side (:func:`vidtrack.track.path.clean_side`) is flagged (touched). Measured
+        scatter: synthetic straws 0.006-0.014; a straw coming out from behind a post, 3 %
+        of it hidden at an end, 0.11 over the median.
     width_floor : float
         The smallest scatter of the log of a rod's width (its diameter, whatever its
         attitude) that the width test divides by: with ``k_flag`` 5, a rod 5 % narrower
