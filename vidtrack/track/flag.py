@@ -50,8 +50,6 @@ hand pushes what it carries; drag falling off, touched or not, brakes)); the fra
 before it are PRE_RELEASE.
 """
 
-import warnings
-
 import numpy as np
 
 from vidtrack.track._flags import (APPEARANCE, BORDER, LOST, MERGED, OUTLIER, PRE_RELEASE,

@@ -556,12 +556,11 @@ def _kernel_pixels(cover, fg, n_lab, lab, origin, pose, spreads, k, inner, told=
     return x[use], y[use], cover[use], measured, None if told is None else told[use]
 
 
-def residual_outliers(residual, settings, floor=None):
+def residual_outliers(residual, settings):
     """Frames whose residual share lies beyond ``k_flag`` robust scatters of the chain's
-    (at least ``floor``, default ``residual_floor``) above its median (False where
-    NaN)."""
+    (at least ``residual_floor``) above its median (False where NaN)."""
     r = np.asarray(residual, float)
     med = float(np.nanmedian(r)) if np.isfinite(r).any() else 0.0
-    scale = robust_scale(r, floor=settings.residual_floor if floor is None else floor)
+    scale = robust_scale(r, floor=settings.residual_floor)
     with np.errstate(invalid="ignore"):
         return r > med + settings.k_flag * scale

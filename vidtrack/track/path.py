@@ -188,10 +188,14 @@ def neighbour_median(x, window):
     return np.where(np.isfinite(med), med, x) if n else med
 
 
-def robust_trend(t, y, window, *, iters=3):
+#: :func:`robust_trend` reweighs the neighbours this many times.
+TREND_ROUNDS = 3
+
+
+def robust_trend(t, y, window):
     """Each point's value by :func:`local_quadratic` through its neighbours (leaving it
     out), the neighbours weighed by Tukey's biweight (:data:`TUKEY` robust sigmas) of
-    their residuals, ``iters`` times, the first from their neighbours' median
+    their residuals, :data:`TREND_ROUNDS` times, the first from their neighbours' median
     (:func:`neighbour_median`): a run of gross errors where it is the smaller part of a
     window, even at the end of the series, has no say in its neighbours' values.
 
@@ -203,8 +207,6 @@ def robust_trend(t, y, window, *, iters=3):
         Values; the weights follow the first column's residuals.
     window : int
         Neighbours within ``window`` positions either side.
-    iters : int, keyword-only
-        Reweightings.
 
     Returns
     -------
@@ -214,7 +216,7 @@ def robust_trend(t, y, window, *, iters=3):
     y = np.asarray(y, float)
     first = y if y.ndim == 1 else y[:, 0]
     fit = neighbour_median(first, window)
-    for _ in range(iters):
+    for _ in range(TREND_ROUNDS):
         r = first - fit
         sigma = robust_scale(r, floor=1e-12)
         weights = np.where(np.isfinite(r),
