@@ -26,13 +26,14 @@ Against the chain's own clean frames, two tests with one threshold, ``k_flag``:
   (beyond ``footprint_floor``: the bar fitted to a rod part hidden misfits its own
   pixels); its width, its diameter in any attitude, against its neighbours' median
   over four times ``path_window`` (scatter at least ``width_floor``): a post hiding its
-  side narrows it gradually, which a trend would follow. Something beside the rod, even
+  side narrows it gradually, which a trend would follow; and its kernel's weight, as an
+  object's (the bar reads a part hidden as a fainter whole). Something beside the rod, even
   joined to its detection, does not touch the bar; something over it does. A
   frame only short of weight or size (``hidden``, not narrower) is suspect, not wrong:
-  where the clean frames round it, every such frame left out, predict it within
-  ``k_flag`` of their scatter (:func:`_on_clean_path`), it is kept (a white glider over
-  a cream wall of its own tones loses a quarter of its weight, its point still on its
-  path).
+  where the clean frames round it (one within ``path_window`` on each side), every such
+  frame left out, predict it within ``k_flag`` of their scatter (:func:`_on_clean_path`),
+  it is kept (a white glider over a cream wall of its own tones loses a quarter of its
+  weight, its point still on its path).
 
 A detection touching the frame's border is BORDER; frames inside the chain's span
 without a detection are LOST, and so are the frames at either end of the chain that the
@@ -209,9 +210,19 @@ def _on_clean_path(idx, uv, suspect, clean, scatter, settings):
         return out
     pred, _acc, h, _ha = local_quadratic(idx, uv, settings.path_window,
                                          weights=clean.astype(float), leverage=True)
+    # (round it: a clean frame within ``path_window`` on each side; at the edge of a
+    # hidden stretch the path is extrapolated from one side, where being hidden moves
+    # a point the most)
+    at = idx[clean]
+    lo = np.searchsorted(at, idx - settings.path_window, side="left")
+    below = np.searchsorted(at, idx, side="left")
+    above = np.searchsorted(at, idx, side="right")
+    hi = np.searchsorted(at, idx + settings.path_window, side="right")
+    flanked = (below > lo) & (hi > above)
     with np.errstate(invalid="ignore"):
         res = np.hypot(*(pred - uv).T) / np.sqrt(1.0 + h)
-        out = suspect & (h <= PREDICTION_H_MAX) & (res <= settings.k_flag * scatter)
+        out = (suspect & flanked & (h <= PREDICTION_H_MAX)
+               & (res <= settings.k_flag * scatter))
     return out
 
 
@@ -349,6 +360,13 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
         h, w, a, misfit = bar[idx[barred]].T
         touched[barred], hidden[barred] = _appearance((2.0 * h,), misfit, 4.0 * a * h * w,
                                                       settings, frames=idx[barred])
+        if weight is not None:
+            # (the kernel's weight too: the bar fitted to a rod part hidden reads the
+            # hidden part as a fainter whole, its covered area less short than its
+            # pixels' weight)
+            hidden[barred] |= _size_z(np.maximum(weight[idx[barred]], 1e-3), settings,
+                                      4 * settings.path_window, floor=settings.weight_floor,
+                                      frames=idx[barred]) < -settings.k_flag
         # (a rod narrower than its neighbours is part hidden along its side: its width
         # is measured to a few thousandths, so the frame is not kept on its path's word,
         # as one only short of weight or size is)

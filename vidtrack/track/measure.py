@@ -214,8 +214,9 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
         eu, ev = x - nu, y - nv
         iuu, ivv = np.sum(wi * eu * eu) / sw, np.sum(wi * ev * ev) / sw
         iuv = np.sum(wi * eu * ev) / sw
-        if shape.major > ELONGATED * shape.minor:
-            theta = 0.5 * np.arctan2(2.0 * iuv, iuu - ivv)
+        # (the orientation from the object's own coverage, not its detection's: a
+        # detection over backgrounds of two levels weighs the one of more contrast)
+        theta = 0.5 * np.arctan2(2.0 * iuv, iuu - ivv)
         step = np.hypot(nu - cu, nv - cv)
         cu, cv = nu, nv
         if step < _CONVERGED_PX:
