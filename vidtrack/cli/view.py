@@ -37,6 +37,9 @@ Examples:
 #: Highest TCP port.
 MAX_PORT = 65535
 
+#: How often (s) the waiting main thread wakes to see a Ctrl-C.
+WAKE_S = 0.2
+
 
 def add_arguments(parser):
     parser.add_argument("run", metavar="RUN", help="the run folder (with scene.toml), e.g. "
@@ -76,7 +79,11 @@ def run(args):
 
         webbrowser.open(server.url)
     try:
-        threading.Event().wait()
+        # (woken now and then: a Ctrl-C that the kernel hands to another thread, one of
+        # OpenCV's, only sets a flag, which the main thread reads when it wakes)
+        idle = threading.Event()
+        while not idle.wait(WAKE_S):
+            pass
     except KeyboardInterrupt:
         pass
     finally:
