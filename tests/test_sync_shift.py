@@ -87,8 +87,8 @@ def test_a_shift_of_60_frames_is_found(tmp_path):
     k4 = record["coefficients"]["k4"]
     assert k4["determined"] and k4["value"] == pytest.approx(21.30, rel=0.002)
     # the shift costs no precision: z over the whole flight, as unshifted. Measured with
-    # the flight tracker's tracks: 0.033 here, 0.039 on the unshifted footage (0.03 was
-    # the rules tracker's, whose tracks were smoother); the spliced footage below, 0.31
+    # the flight tracker's tracks: 0.033 here, 0.039 on the unshifted footage (the bound
+    # of 0.03 was measured on the rules tracker's); the footage cut in three below, 0.31
     assert abs(k4["value"] - 21.3) < 2 * k4["stderr_fit"] < 0.1
 
 
