@@ -27,7 +27,8 @@ object or a wrong fps. The shared X measures that scale error:
    merge, the ratio is the root of (ratio measured with the scales moved for d) - d,
    found by the secant method to a hundredth of its standard error. A ratio within
    :data:`SEEN_Z` of its own standard errors of 1 (no difference the points can tell,
-   as on ``datasets/run42``: 0.99996 +- 0.00003) moves no scale: the world track is the
+   as on ``datasets/run42``: 1.00001 +- 0.00003; 0.99996 from the flight tracker's
+   tracks) moves no scale: the world track is the
    merge of the scales as given, while the covariance below still holds. That is judged
    on the first estimate and again on the refined one (the first, on a clock found with
    the scales as given, can show what the refined one does not). The scales'
