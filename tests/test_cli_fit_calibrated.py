@@ -122,11 +122,12 @@ def test_real_three_camera_rig(shared_dir, tmp_path, vidtrack_cli):
         assert 9.5 <= g <= 10.5, (name, g)
 
 
-def _badminton_run(shared_dir, run, *, footage):
+def _badminton_run(shared_dir, run, *, footage, first_frame=732):
     """One flight between two hits (frames 732-872; the hits are where the court-length
     velocity reverses) of the two calibrated badminton cameras (OpenCV projections,
     lens): the labelled pixels as ``points``, or with ``footage`` the videos, tracked,
-    with a ``target`` on the shuttlecock in frame 802 (the labelled pixel there)."""
+    with a ``target`` on the shuttlecock in frame 802 (the labelled pixel there).
+    ``first_frame`` starts the flight later (the frames fitted: first_frame..872)."""
     import ast
     import configparser
 
@@ -154,7 +155,7 @@ def _badminton_run(shared_dir, run, *, footage):
                   "projection = " + json.dumps(o["projection_mat"]),
                   "intrinsics = " + json.dumps(o["ks"]),
                   "distortion = " + json.dumps(np.ravel(o["dist"]).tolist()),
-                  "frames = [732, 872]"]
+                  f"frames = [{int(first_frame)}, 872]"]
     (run / "scene.toml").write_text("\n".join(lines) + "\n")
     return run
 
@@ -179,13 +180,23 @@ def test_real_two_camera_rig_tracked_from_the_footage(shared_dir, tmp_path, vidt
     a ``target`` in one frame), triangulated and fitted. The two cameras' centroids agree
     better with the calibration than the labels do (which mark the cork, ahead of the
     centroid by a share of the apparent length that differs between the cameras), and
-    the coefficients agree with the labels' within their uncertainty."""
-    lab, _ = _fit_json(vidtrack_cli, _badminton_run(shared_dir, tmp_path / "lab",
-                                                    footage=False))
+    the coefficients agree with the labels' within their uncertainty, over the same
+    stretch of the flight: the quadratic model is not a shuttlecock's exact law, so its
+    k1 depends on the stretch fitted. The tracker loses camera 1's first 17 frames after
+    the hit (the world track starts at frame 749; the rules tracker's at 768), and the
+    labels fitted over 732..871 give k1 1.907 +- 0.035, over 749..871 1.800 +- 0.067:
+    tracked, 119 rows, k1 1.732 +- 0.028, k2 0.694 +- 0.006, k3 1.419 +- 0.017 (labels
+    over 749..871: 0.692 +- 0.013, 1.438 +- 0.051); median reprojection 6.5 px
+    (labels 7.0 px)."""
     rec, _ = _fit_json(vidtrack_cli, _badminton_run(shared_dir, tmp_path / "trk",
                                                     footage=True))
-    print(f"\nbadminton from footage: {rec['world']['rows']} rows, median reprojection "
-          f"{rec['world']['median_reprojection_px']:.2f} px (labels: "
+    frames = pd.read_csv(tmp_path / "trk" / "vidtrack" / "world.csv")["frame"]
+    first = int(frames.min())
+    assert first < 802 and int(frames.max()) >= 860           # the flight, not a piece
+    lab, _ = _fit_json(vidtrack_cli, _badminton_run(shared_dir, tmp_path / "lab",
+                                                    footage=False, first_frame=first))
+    print(f"\nbadminton from footage: {rec['world']['rows']} rows from frame {first}, "
+          f"median reprojection {rec['world']['median_reprojection_px']:.2f} px (labels: "
           f"{lab['world']['median_reprojection_px']:.2f} px); " + ", ".join(
               f"{k} {rec['coefficients'][k]['value']:.3f} +- "
               f"{rec['coefficients'][k]['stderr']:.3f} (labels "

@@ -96,19 +96,47 @@ def test_a_top_ruler_read_long_is_measured_reconciled_and_fitted(tmp_path, vidtr
         assert rec[v]["scale_rel_uncertainty_reconciled"] < rec[v]["scale_rel_uncertainty"]
 
 
-def test_the_views_of_run42_agree_and_keep_their_scales(tmp_path, vidtrack_cli):
+def test_the_views_of_run42_agree_and_keep_their_scales_as_read(tmp_path, vidtrack_cli):
+    """run42's rulers are exact, so the views' true relative scale is 1. What the tracks
+    show of it is bounded by the render: each view's coverage centroid may sit up to
+    1 / (8 w) px off the straw's centre (truth.json's conventions, w the straw's width),
+    and a disagreement e of the views' X with |e| <= B fits a slope of at most
+    B mean|x - mean x| / var(x) over the flight's X (7.8e-4 here). With the flight
+    tracker's tracks the ratio is 0.99996 +- 0.00003 (1.4 standard errors of 1; the
+    first estimate, on a clock found with the scales as given, 0.99994, 2.1): no
+    difference the points can tell, so nothing moved and nothing said. Whether a
+    difference this small is seen is not what the render promises (the standard error
+    counts the tracks' noise, not the centroids' bias): were one seen, the scales move
+    and it is said, by a share within the render's bound, far below what a ruler can
+    read (its stated 0.8 %), and k stays within the issue's tolerance of the truth."""
     from pathlib import Path
+
+    import numpy as np
+
+    from conftest import assert_k_within
 
     run = tmp_path / "run42"
     shutil.copytree(Path(__file__).parents[1] / "datasets" / "run42", run,
                     ignore=shutil.ignore_patterns("vidtrack"))
     r = vidtrack_cli("fit", str(run), "--json", "--no-report")
     assert r.returncode == 0, r.stderr
-    shared = json.loads(r.stdout)["world"]["shared_x"]
-    # no difference the points can tell: nothing moved, nothing said
-    assert abs(shared["ratio"] - 1.0) < 1.96 * shared["ratio_se"]
-    assert shared["factors"] == {"front": 1.0, "top": 1.0}
-    assert "shared X" not in r.stderr
+    record = json.loads(r.stdout)
+    shared = record["world"]["shared_x"]
+    tr = truth(run)
+    bias_m = sum(tr["views"][v]["m_per_px"] / (16.0 * tr["views"][v]["straw_radius_px"])
+                 for v in ("front", "top"))
+    pf = tr["views"]["front"]["per_frame"]
+    x = np.asarray(pf["x_m"], float)[np.asarray(pf["phase"]) == "flight"]
+    slope_bound = bias_m * np.mean(np.abs(x - x.mean())) / np.var(x)
+    assert abs(shared["ratio"] - 1.0) < slope_bound
+    # the rule: the scales move when, and only when, the data show a difference, and
+    # then it is said
+    seen = abs(shared["ratio"] - 1.0) > 1.96 * shared["ratio_se"]
+    moved = shared["factors"] != {"front": 1.0, "top": 1.0}
+    assert moved == seen and ("shared X" in r.stderr) == seen
+    for v, f in shared["factors"].items():
+        assert abs(f - 1.0) < slope_bound < shared["rel_uncertainty"][v]
+    assert_k_within(record, tr["truth"]["k"])
 
 
 def test_a_wrong_fps_in_one_view_is_still_refused(tmp_path, vidtrack_cli, wide):
