@@ -289,7 +289,7 @@ def _width_z(width, settings):
 
 
 def judge(chain, detections, n, settings, *, find_release=True, residual=None,
-          weight=None, bar=None, foot=None, joined=None, held=None):
+          weight=None, bar=None, foot=None, joined=None, held=None, cut=None):
     """Flags, reasons and the release of a chosen chain.
 
     Parameters
@@ -318,6 +318,10 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     held : numpy.ndarray of int, optional
         Frame positions where the object lies over pixels no background sample shows
         without it (APPEARANCE, ``held``).
+    cut : numpy.ndarray of int, optional
+        Frame positions of a rod part hidden at an end (its bar shorter than its
+        flight's with one end where it was, :func:`vidtrack.track.joined.hold_profile`):
+        APPEARANCE, ``hidden``.
 
     Returns
     -------
@@ -387,6 +391,11 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
         flight = np.flatnonzero(chain.explained)
         touched[np.searchsorted(idx, joined)] |= (size_z(chain, joined, flight, settings)
                                                   > settings.k_flag)
+    # (a rod cut at an end is not kept on its path's word: its centre is its piece's)
+    ends = np.zeros(idx.size, bool)
+    if cut is not None and len(cut):
+        ends[np.searchsorted(idx, cut)] = True
+    hidden |= ends
     grown = touched | hidden
     flags[idx[grown]] |= APPEARANCE
     # (two moving things seen as one detection where they cross: the place of neither)
@@ -397,7 +406,7 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     flags[idx[off]] |= OUTLIER
     # (a frame only short of weight or size is suspect, not wrong: where the clean
     # frames round it predict it, it is kept)
-    unhid = _on_clean_path(idx, uv, hidden & ~narrow & ~touched & ~crossed & ~off,
+    unhid = _on_clean_path(idx, uv, hidden & ~narrow & ~ends & ~touched & ~crossed & ~off,
                            ~grown & ~crossed & ~off, scatter, settings)
     flags[idx[unhid]] &= ~APPEARANCE
     hidden &= ~unhid

@@ -480,19 +480,22 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     for i in followed:
         moments[i] = bar_moments(bars[i])
 
+    cut = np.zeros(0, int)
+
     def judged():
         return judge(chain, detections, n, settings, find_release=view != "top",
                      residual=residual, weight=moments[:, 0], bar=bars[:, :4],
                      foot=bars[:, BAR_COLUMNS.index("foot")], joined=followed,
-                     held=over_held)
+                     held=over_held, cut=cut)
 
     flags, release, scatter, notes, reasons = judged()
     # (a rod's bar reaching along into what touches an end, in its flight: measured again
-    # by its own length and blurs, and judged again)
-    refit = (hold_profile(chain, bars, settings, *remeasure, after=release or 0) if rod
-             else np.zeros(0, int))
+    # by its own length and blurs; one shorter with an end that stayed, part hidden: and
+    # judged again)
+    refit, cut = (hold_profile(chain, bars, settings, *remeasure, after=release or 0)
+                  if rod else (np.zeros(0, int), np.zeros(0, int)))
     del remeasure
-    if refit.size:
+    if refit.size or cut.size:
         flags, release, scatter, notes, reasons = judged()
         notes.append(f"{refit.size} frames measured by the rod's own length and blurs: its "
                      f"bar reached farther along, into what touches an end")

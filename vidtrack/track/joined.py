@@ -185,19 +185,38 @@ def hold_profile(chain, bars, settings, measure, keep, *, after=0):
     -------
     numpy.ndarray of int
         The frame positions measured again.
+    numpy.ndarray of int
+        The frame positions whose bar is as many scatters shorter than the trend and,
+        measured again with the trend's length, moved along by :data:`ONE_END` of the
+        difference: one end stayed, the other is hidden (a straw coming out from behind
+        a post, the piece seen growing from the post's edge). They are flagged, not
+        measured again.
     """
     flight = np.flatnonzero(chain.explained)
     flight = flight[flight >= after]
     barred = flight[np.isfinite(bars[flight, :7]).all(axis=1)]
     if barred.size <= 2 * settings.path_window:
-        return np.zeros(0, int)
+        return np.zeros(0, int), np.zeros(0, int)
     b = bars[barred]
     along = _along(b)
     trend = robust_trend(barred, np.column_stack([along, np.log(b[:, 0]), b[:, 1], b[:, 5],
                                                   b[:, 6]]), 8 * settings.path_window)
     dev = along - trend[:, 0]
     z = dev / robust_scale(dev, floor=settings.profile_floor)
-    done = []
+    done, cut = [], []
+    short = np.flatnonzero(z < -settings.k_flag)
+    if short.size:
+        # (where the flight puts its centre: each coordinate's robust trend)
+        window = 8 * settings.path_window
+        pu = robust_trend(barred, chain.u[barred], window)
+        pv = robust_trend(barred, chain.v[barred], window)
+        for j in short:
+            i = int(barred[j])
+            lost = np.exp(trend[j, 1]) - b[j, 0]
+            shift = ((chain.u[i] - pu[j]) * np.cos(b[j, 4])
+                     + (chain.v[i] - pv[j]) * np.sin(b[j, 4]))
+            if np.isfinite(shift) and abs(shift) >= ONE_END * lost:
+                cut.append(i)
     for j in np.flatnonzero(z > settings.k_flag):
         i = int(barred[j])
         if not np.isfinite(trend[j]).all():
@@ -212,4 +231,4 @@ def hold_profile(chain, bars, settings, measure, keep, *, after=0):
             continue
         keep(i, got)
         done.append(i)
-    return np.array(done, int)
+    return np.array(done, int), np.array(cut, int)
