@@ -497,8 +497,12 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
     del remeasure
     if refit.size or cut.size:
         flags, release, scatter, notes, reasons = judged()
+    if refit.size:
         notes.append(f"{refit.size} frames measured by the rod's own length and blurs: its "
                      f"bar reached farther along, into what touches an end")
+    if cut.size:
+        notes.append(f"{cut.size} frames of the rod cut at an end (shorter than its flight's, "
+                     f"its centre moved along with the end it shows): flagged hidden")
     if again_note:
         notes.insert(0, again_note)
     if matte_note:

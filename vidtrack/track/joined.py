@@ -186,11 +186,12 @@ def hold_profile(chain, bars, settings, measure, keep, *, after=0):
     numpy.ndarray of int
         The frame positions measured again.
     numpy.ndarray of int
-        The frame positions whose bar is as many scatters shorter than the trend and,
-        measured again with the trend's length, moved along by :data:`ONE_END` of the
-        difference: one end stayed, the other is hidden (a straw coming out from behind
-        a post, the piece seen growing from the post's edge). They are flagged, not
-        measured again.
+        The frame positions whose bar is as many scatters shorter than the trend and
+        whose centre lies off the flight's (each coordinate's robust trend through the
+        same frames) along the bar by at least :data:`ONE_END` of the half length lost:
+        one end stayed, the other is hidden (a straw coming out from behind a post, the
+        piece seen growing from the post's edge). They are flagged, not measured again
+        (the pixels behind the post say "no rod" to a bar held at its length).
     """
     flight = np.flatnonzero(chain.explained)
     flight = flight[flight >= after]

@@ -47,8 +47,9 @@ _CONVERGED_PX = 0.005
 
 _KERNEL3 = np.ones((3, 3), np.uint8)
 
-#: The kernel turns with the object (its orientation fitted) only for an object at least
-#: this many times longer than wide: a round one has no orientation to fit.
+#: A compact object's ellipse has its orientation fitted only where it is at least this
+#: many times longer than wide (a round one has none to fit); else it keeps its kernel's,
+#: from the frame's coverage moments.
 ELONGATED = 1.5
 
 #: The residual share is taken over the pixels within this many kernels of the object.
