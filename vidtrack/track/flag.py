@@ -269,14 +269,22 @@ def _appearance(size_measures, residual, weight, settings, frames=None):
     if residual is not None:
         touched |= residual_outliers(residual, settings)
     if weight is not None:
-        hidden |= _size_z(np.maximum(weight, 1e-3), settings, 4 * settings.path_window,
-                          floor=settings.weight_floor, frames=frames) < -settings.k_flag
+        hidden |= _short_of_weight(weight, settings, frames=frames)
     for measure in size_measures:
         z = _size_z(np.maximum(measure, 0.3), settings, 2 * settings.path_window,
                     frames=frames)
         touched |= z > settings.k_flag
         hidden |= z < -settings.k_flag
     return touched, hidden
+
+
+def _short_of_weight(weight, settings, frames=None):
+    """Frames whose measured weight is short of their neighbours' within ``4 *
+    path_window`` (or of their local quadratic in time, given the ``frames``) by more
+    than ``k_flag`` scatters of the log weight (at least ``weight_floor``): part
+    hidden."""
+    return _size_z(np.maximum(weight, 1e-3), settings, 4 * settings.path_window,
+                   floor=settings.weight_floor, frames=frames) < -settings.k_flag
 
 
 def _width_z(width, settings):
@@ -368,9 +376,8 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
             # (the kernel's weight too: the bar fitted to a rod part hidden reads the
             # hidden part as a fainter whole, its covered area less short than its
             # pixels' weight)
-            hidden[barred] |= _size_z(np.maximum(weight[idx[barred]], 1e-3), settings,
-                                      4 * settings.path_window, floor=settings.weight_floor,
-                                      frames=idx[barred]) < -settings.k_flag
+            hidden[barred] |= _short_of_weight(weight[idx[barred]], settings,
+                                               frames=idx[barred])
         # (a rod narrower than its neighbours is part hidden along its side: its width
         # is measured to a few thousandths, so the frame is not kept on its path's word,
         # as one only short of weight or size is)
