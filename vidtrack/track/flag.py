@@ -84,6 +84,9 @@ REASONS = {"lost": "no detection of the object in this frame (LOST)",
                      "before and after: they cross (MERGED)",
            "hidden": "part of the object hidden: its size or measured weight shrunk at a "
                      "stroke, or a rod narrower than its neighbours (APPEARANCE)",
+           "unfit": "a rod whose bar could not be fitted to it (the fit failed or ran "
+                    "off; measured by its kernel alone), not on the path of the clean "
+                    "frames round it (APPEARANCE)",
            "shadow": "shadow-like in a chain that is not (APPEARANCE)",
            "held": "over pixels where the object stood in nearly every frame the background "
                    "was taken from, which none shows without it: measured against the "
@@ -297,7 +300,7 @@ def _width_z(width, settings):
 
 
 def judge(chain, detections, n, settings, *, find_release=True, residual=None,
-          weight=None, bar=None, foot=None, joined=None, held=None, cut=None):
+          weight=None, bar=None, foot=None, joined=None, held=None, cut=None, rod=False):
     """Flags, reasons and the release of a chosen chain.
 
     Parameters
@@ -330,6 +333,11 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
         Frame positions of a rod part hidden at an end (its bar shorter than its
         flight's with one end where it was, :func:`vidtrack.track.joined.hold_profile`):
         APPEARANCE, ``hidden``.
+    rod : bool
+        The object is a rod: its frames without a bar (the fit failed or ran off) are
+        suspect (``unfit``), kept where the clean frames round them predict them. (A
+        compact object's ellipse is fitted only where it explains the object: its other
+        frames are measured by its kernel by design.)
 
     Returns
     -------
@@ -368,6 +376,10 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     barred = (np.isfinite(bar[idx]).all(axis=1) if bar is not None
               else np.zeros(idx.size, bool))
     narrow = np.zeros(idx.size, bool)
+    # (a rod's frame without its bar, the fit failed or run off, is measured by its
+    # kernel alone, which what lies beside it moves: suspect, kept where the clean frames
+    # round it predict it)
+    unfit = ~barred if rod and barred.any() else np.zeros(idx.size, bool)
     if barred.any():
         h, w, a, misfit = bar[idx[barred]].T
         touched[barred], hidden[barred] = _appearance((2.0 * h,), misfit, 4.0 * a * h * w,
@@ -403,7 +415,7 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     if cut is not None and len(cut):
         ends[np.searchsorted(idx, cut)] = True
     hidden |= ends
-    grown = touched | hidden
+    grown = touched | hidden | unfit
     flags[idx[grown]] |= APPEARANCE
     # (two moving things seen as one detection where they cross: the place of neither)
     crossed = chain.merged[idx]
@@ -413,15 +425,17 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     flags[idx[off]] |= OUTLIER
     # (a frame only short of weight or size is suspect, not wrong: where the clean
     # frames round it predict it, it is kept)
-    unhid = _on_clean_path(idx, uv, hidden & ~narrow & ~ends & ~touched & ~crossed & ~off,
-                           ~grown & ~crossed & ~off, scatter, settings)
+    unhid = _on_clean_path(idx, uv, (hidden & ~narrow & ~ends | unfit) & ~touched & ~crossed
+                           & ~off, ~grown & ~crossed & ~off, scatter, settings)
     flags[idx[unhid]] &= ~APPEARANCE
     hidden &= ~unhid
+    unfit &= ~unhid
     # (the chain's ends off its path, in view: what the chain took where the object was
     # not seen, a hand before the throw, a racket after a hit, is not the object)
     astray = _end_runs(off & ((flags[idx] & BORDER) == 0))
     reasons["touched"][idx[touched]] = True
     reasons["hidden"][idx[hidden]] = True
+    reasons["unfit"][idx[unfit]] = True
     reasons["off-path"][idx[off]] = True
     if held is not None and len(held):
         flags[held] |= APPEARANCE

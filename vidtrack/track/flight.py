@@ -486,7 +486,7 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
         return judge(chain, detections, n, settings, find_release=view != "top",
                      residual=residual, weight=moments[:, 0], bar=bars[:, :4],
                      foot=bars[:, BAR_COLUMNS.index("foot")], joined=followed,
-                     held=over_held, cut=cut)
+                     held=over_held, cut=cut, rod=rod)
 
     flags, release, scatter, notes, reasons = judged()
     # (a rod's bar reaching along into what touches an end, in its flight: measured again

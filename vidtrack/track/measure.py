@@ -173,7 +173,7 @@ def measure_frame(frame, background, sigma, det, shape, settings, shadow_test=No
     k = settings.kernel_sigmas
     cu, cv = float(det["u"]), float(det["v"])
     (a, b), ((r0, c0), bg, sg, d, fg, shade, (n_lab, lab)) = _object_crop(
-        frame, background, sigma, (cu, cv), shape, settings, shadow_test)
+        frame, background, sigma, (cu, cv), shape, settings, shadow_test, det=det)
     grown = cv2.dilate(fg, _KERNEL3) != 0
     shaded = _shaded(shade, grown)
     ys, xs = nonzero_2d(grown)
@@ -407,23 +407,33 @@ def rod_at(frame, background, sigma, det, pose, bar, shape, settings, shadow_tes
                    cap_px=settings.bar_cap_px, hold=HELD)
 
 
-def _object_crop(frame, background, sigma, centre, shape, settings, shadow_test):
+def _object_crop(frame, background, sigma, centre, shape, settings, shadow_test, det=None):
     """The kernel's spreads ``(a, b)`` (the shape's, each at least a pixel: blur,
     sampling) and :func:`_crop` round ``centre``, reaching twice the kernel along."""
     a = np.hypot(max(shape.major, 0.5), 0.5)
     b = np.hypot(max(shape.minor, 0.5), 0.5)
     reach = int(np.ceil(2.0 * settings.kernel_sigmas * a)) + 2
     return (a, b), _crop(frame, background, sigma, centre, reach, max(2.0 * a, 3.0),
-                         settings, shadow_test)
+                         settings, shadow_test, det=det)
 
 
-def _crop(frame, background, sigma, centre, reach, near_px, settings, shadow_test):
+#: A detection's own pixels lie within this many of its spreads (its second moments,
+#: a pixel's square added for the blur and the grid) of its centroid: an ellipse of
+#: uniform cover ends at 2.
+OWN_SPREADS = 2.0
+
+
+def _crop(frame, background, sigma, centre, reach, near_px, settings, shadow_test,
+          det=None):
     """The frame round ``centre`` (``reach`` px each way): its origin (row, column), the
     background (dimmed where the shadow test finds a shadow) and noise there, the
     difference, the foreground (beyond ``k_grow``; no shadow's) as the connected
-    pixels that hold the most of those within ``near_px`` of the centre (another
-    object's, apart from the object, are not its own even where they lie within its
-    kernel), the shadow's pixels (or None) and the labelling ``(count, labels)``."""
+    pixels that hold the most of the detection's own (``det``: within
+    :data:`OWN_SPREADS` of its moments' ellipse; without one, within ``near_px`` of the
+    centre): another object's, apart from the object, are not its own even where they
+    lie within its kernel, and where the object shows faint, a brighter one beside it
+    within the kernel is still not it; the shadow's pixels (or None) and the labelling
+    ``(count, labels)``."""
     rows, cols = frame.shape
     cu, cv = centre
     r0, r1 = max(int(cv) - reach, 0), min(int(cv) + reach + 1, rows)
@@ -447,7 +457,14 @@ def _crop(frame, background, sigma, centre, reach, near_px, settings, shadow_tes
     n_lab, lab = cv2.connectedComponents(fg, connectivity=8)
     if n_lab > 2:
         ly, lx = nonzero_2d(lab != 0)
-        near = np.hypot(lx + c0 - cu, ly + r0 - cv) <= near_px
+        du, dv = lx + c0 - cu, ly + r0 - cv
+        if det is None:
+            near = np.hypot(du, dv) <= near_px
+        else:
+            suu, svv = float(det["muu"]) + 1.0, float(det["mvv"]) + 1.0
+            suv = float(det["muv"])
+            m2 = (svv * du * du - 2.0 * suv * du * dv + suu * dv * dv) / (suu * svv - suv * suv)
+            near = m2 <= OWN_SPREADS ** 2
         counts = np.bincount(lab[ly[near], lx[near]], minlength=n_lab)
         counts[0] = 0
         fg = (lab == int(np.argmax(counts))).astype(np.uint8) if counts.any() else fg
