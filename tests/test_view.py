@@ -463,11 +463,18 @@ def test_bad_input_exit_2_one_line(tmp_path, vidtrack_cli, setup, args, message)
     assert (digests(run) if run.exists() else None) == before
 
 
+def _ctrl_c_as_in_a_terminal():
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def serve(run):
     """The real command in a child process; returns it and the URL it printed."""
     env = dict(os.environ, PYTHONUNBUFFERED="1")
+    # (Ctrl-C reaches it as in a terminal: a test run started in the background of a
+    # shell without job control inherits SIGINT ignored, and Python keeps it so)
     proc = subprocess.Popen([sys.executable, "-m", "vidtrack", "view", str(run), "--no-browser"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                            preexec_fn=_ctrl_c_as_in_a_terminal)
     line = proc.stdout.readline()
     m = re.search(r"(http://127\.0\.0\.1:\d+/)", line)
     if m is None:
