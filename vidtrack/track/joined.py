@@ -28,29 +28,22 @@ overlaps it) and its path is where the release is looked for.
 
 import numpy as np
 
-from vidtrack.track.measure import rod_at
+from vidtrack.track.measure import OWN_SPREADS, rod_at, spreads_sq
 from vidtrack.track.path import extrapolate, robust_scale, robust_trend
 
 __all__ = ["follow_back", "hold_profile", "size_z"]
 
 
-#: A point lies in a detection within this many of its spreads from its centre, along
-#: each axis of its second moments (a uniform ellipse's edge lies at two).
-INSIDE_SPREADS = 2.0
-
-
 def _inside(dets, u, v):
     """The detection whose ellipse of second moments holds ``(u, v)`` (within
-    :data:`INSIDE_SPREADS`) nearest its centre, in its own spreads, or -1."""
+    :data:`vidtrack.track.measure.OWN_SPREADS`) nearest its centre, in its own spreads,
+    or -1."""
     if len(dets) == 0:
         return -1
-    du, dv = u - dets["u"], v - dets["v"]
-    muu, mvv, muv = (np.maximum(dets["muu"], 0.25), np.maximum(dets["mvv"], 0.25),
-                     dets["muv"])
-    det = np.maximum(muu * mvv - muv * muv, 1e-6)
-    m2 = (mvv * du * du - 2.0 * muv * du * dv + muu * dv * dv) / det
+    m2 = spreads_sq(u - dets["u"], v - dets["v"], np.maximum(dets["muu"], 0.25),
+                    np.maximum(dets["mvv"], 0.25), dets["muv"])
     j = int(np.argmin(m2))
-    return j if m2[j] <= INSIDE_SPREADS ** 2 else -1
+    return j if m2[j] <= OWN_SPREADS ** 2 else -1
 
 
 def _clean(chain, bars, flight, settings):

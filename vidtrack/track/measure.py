@@ -417,10 +417,18 @@ def _object_crop(frame, background, sigma, centre, shape, settings, shadow_test,
                          settings, shadow_test, det=det)
 
 
-#: A detection's own pixels lie within this many of its spreads (its second moments,
-#: a pixel's square added for the blur and the grid) of its centroid: an ellipse of
-#: uniform cover ends at 2.
+#: A point lies in a detection within this many of its spreads (square roots of its
+#: second moments, along each of their axes) from its centroid: an ellipse of uniform
+#: cover ends at 2.
 OWN_SPREADS = 2.0
+
+
+def spreads_sq(du, dv, muu, mvv, muv):
+    """The squared distance of the offsets ``(du, dv)`` from a centroid in spreads of
+    the second moments ``muu, mvv, muv`` (the Mahalanobis distance squared; the
+    moments' determinant taken at least 1e-6)."""
+    return ((mvv * du * du - 2.0 * muv * du * dv + muu * dv * dv)
+            / np.maximum(muu * mvv - muv * muv, 1e-6))
 
 
 def _crop(frame, background, sigma, centre, reach, near_px, settings, shadow_test,
@@ -461,10 +469,9 @@ def _crop(frame, background, sigma, centre, reach, near_px, settings, shadow_tes
         if det is None:
             near = np.hypot(du, dv) <= near_px
         else:
-            suu, svv = float(det["muu"]) + 1.0, float(det["mvv"]) + 1.0
-            suv = float(det["muv"])
-            m2 = (svv * du * du - 2.0 * suv * du * dv + suu * dv * dv) / (suu * svv - suv * suv)
-            near = m2 <= OWN_SPREADS ** 2
+            # (a pixel's square added to each moment: the blur and the grid)
+            near = spreads_sq(du, dv, float(det["muu"]) + 1.0, float(det["mvv"]) + 1.0,
+                              float(det["muv"])) <= OWN_SPREADS ** 2
         counts = np.bincount(lab[ly[near], lx[near]], minlength=n_lab)
         counts[0] = 0
         fg = (lab == int(np.argmax(counts))).astype(np.uint8) if counts.any() else fg
