@@ -11,7 +11,10 @@ Where two chains take one detection over a run of frames and are apart before an
 it (two things that cross, seen as one: :func:`mark_merged`, over every chain grown,
 before those through the same detections are made one), those frames are each chain's
 ``merged``: they are seen but tell neither's flight (its score fits and scores round
-them) and are flagged MERGED.
+them) and are flagged MERGED. Two chains that take the same detections over a run of
+frames and part again (two things side by side, seen as one, each chain following the
+pair and leaving it on either) are also scored with their parts after the run
+exchanged (:func:`_swapped`): the flight says which thing went on where.
 Chains through the same detections are one; two chains that one flight explains across
 a gap (the object hidden behind something for longer than ``max_gap``) are joined when
 each one's path, carried over the gap, meets the other's, their joint score exceeds
@@ -444,6 +447,32 @@ def _join(chains, detections, settings):
     return chains
 
 
+def _swapped(chains, detections, settings):
+    """Chains that leave a shared run the other way: where two chains take the same
+    detections over a run of ``link_min_frames`` frames or more and each has
+    ``link_min_frames`` frames of its own before it and after it (two things seen as one
+    where they pass side by side, each chain following the pair's centroid and leaving
+    it on either), the two chains with their parts after the run exchanged (and their
+    ``merged`` frames with them). They are scored beside the chains grown: which thing
+    went on where is the flight's to say."""
+    out = []
+    k = settings.link_min_frames
+    for i, a in enumerate(chains):
+        for b in chains[i + 1:]:
+            same = (a.pick >= 0) & (b.pick == a.pick)
+            own = (a.pick >= 0) & (b.pick >= 0) & (b.pick != a.pick)
+            for lo, hi in runs(same):
+                if (hi - lo < k or np.count_nonzero(own[:lo]) < k
+                        or np.count_nonzero(own[hi:]) < k):
+                    continue
+                for first, then in ((a, b), (b, a)):
+                    chain = Chain(np.r_[first.pick[:hi], then.pick[hi:]], detections)
+                    chain.merged[:] = np.r_[first.merged[:hi], then.merged[hi:]]
+                    chain.score = _score(chain, settings, detections)
+                    out.append(chain)
+    return out
+
+
 def _seeds(detections, tracklets, settings):
     """Seeds from the tracklets that travel most (their central frames)."""
     good = [tr for tr in tracklets if len(tr) >= settings.link_min_frames]
@@ -535,6 +564,7 @@ def choose(detections, tracklets, settings, *, target=None, frame_numbers=None,
         for chain in grown:
             if chain.merged.any():
                 chain.score = _score(chain, settings, detections)
+    grown += _swapped(grown, detections, settings)
     # chains through the same detections are one: the best scoring of them
     chains = []
     for chain in sorted(grown, key=lambda c: c.score, reverse=True):
