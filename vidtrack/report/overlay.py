@@ -14,7 +14,8 @@ Every frame of a view, in colour, with:
   circled cross, each world axis as an arrow from O toward its positive direction
   labelled with its name, the ruler as a line between its ends with end ticks and its
   length;
-- a dark banner in the top-left corner: the view, the frame number and its time, and
+- a dark banner in the top-left corner (the bottom-left one where it would hide the
+  measured point and that one does not; the marks are drawn over it): the view, the frame number and its time, and
   the flag names in the flag colour (``ok`` when unflagged, ``not tracked`` for a
   frame outside the view's ``frames`` range).
 
@@ -113,6 +114,12 @@ def _to_image(uv, scale, offset=(0.0, 0.0)):
     return (uv - np.asarray(offset) + 0.5) * scale - 0.5
 
 
+def ring_radius(img):
+    """A measured point's ring radius on ``img`` (image pixels): a 40th of its smaller
+    side, at least 5."""
+    return max(5.0, min(img.shape[:2]) / 40.0)
+
+
 def _pt(uv):
     return (int(round(uv[0] * _ONE)), int(round(uv[1] * _ONE)))
 
@@ -156,7 +163,7 @@ def draw_marks(img, *, measured, flags, path=None, fitted=None, scale=1.0,
 
     h, w = img.shape[:2]
     if radius is None:
-        radius = max(5.0, min(h, w) / 40.0)
+        radius = ring_radius(img)
     if path is not None and len(path) >= 2:
         pts = np.round(_to_image(path, scale, offset) * _ONE).astype(np.int64)
         cv2.polylines(img, [pts.astype(np.int32).reshape(-1, 1, 2)], False, PATH_COLOUR, 1,
@@ -188,7 +195,7 @@ def draw_rings(img, points, flags, *, scale=1.0, offset=(0.0, 0.0), radius=None)
     import cv2
 
     if radius is None:
-        radius = max(5.0, min(img.shape[:2]) / 40.0)
+        radius = ring_radius(img)
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     ok = np.all(np.isfinite(pts), axis=1)
     # all at once, rounded as _pt rounds one (half to even)
@@ -221,7 +228,7 @@ def draw_trail(img, points, *, scale=1.0, offset=(0.0, 0.0), radius=None):
         return
     h, w = img.shape[:2]
     if radius is None:
-        radius = max(2.0, max(5.0, min(h, w) / 40.0) / 2.5)
+        radius = max(2.0, ring_radius(img) / 2.5)
     uv = _to_image(pts, scale, offset)
     ok = np.all(np.isfinite(uv), axis=1)
     if not ok.any():
@@ -332,7 +339,7 @@ def draw_scene(img, marks, *, scale=1.0, offset=(0.0, 0.0)):
     if marks is None:
         return
     h, w = img.shape[:2]
-    size = max(5.0, min(h, w) / 40.0)
+    size = ring_radius(img)
     fs = float(np.clip(min(h, w) / 500.0, 0.3, 0.8))
     o = _to_image(marks.origin, scale, offset)
     cv2.circle(img, _pt(o), int(round(size * _ONE)), SCENE_COLOUR, 1, cv2.LINE_AA, _SHIFT)
@@ -359,8 +366,11 @@ def draw_scene(img, marks, *, scale=1.0, offset=(0.0, 0.0)):
                    SCENE_COLOUR, fs)
 
 
-def draw_banner(img, lines, colours):
-    """Text lines on a dark banner in the top-left corner (the size follows the image)."""
+def draw_banner(img, lines, colours, avoid=None):
+    """Text lines on a dark banner in the top-left corner (the size follows the image);
+    in the bottom-left corner where the top-left one would cover ``avoid`` and that one
+    does not: an image point with the radius about it that should stay in view, ``(u,
+    v, r)`` (the measured point's ring)."""
     import cv2
 
     h, w = img.shape[:2]
@@ -368,17 +378,22 @@ def draw_banner(img, lines, colours):
     th = max(1, int(round(fs * 1.6)))
     sizes = [cv2.getTextSize(t, cv2.FONT_HERSHEY_SIMPLEX, fs, th) for t in lines]
     line_h = max(s[0][1] + s[1] for s in sizes) + 4
-    width = max(s[0][0] for s in sizes) + 8
-    cv2.rectangle(img, (0, 0), (min(w - 1, width), min(h - 1, line_h * len(lines) + 2)),
-                  (0, 0, 0), -1)
+    right = min(w - 1, max(s[0][0] for s in sizes) + 8)
+    depth = min(h - 1, line_h * len(lines) + 2)
+    top = 0
+    if avoid is not None and np.all(np.isfinite(avoid)):
+        u, v, r = avoid
+        if u - r <= right and v - r <= depth and v + r < h - 1 - depth:
+            top = h - 1 - depth
+    cv2.rectangle(img, (0, top), (right, top + depth), (0, 0, 0), -1)
     for k, (text, colour) in enumerate(zip(lines, colours)):
-        cv2.putText(img, text, (4, (k + 1) * line_h - 3), cv2.FONT_HERSHEY_SIMPLEX, fs,
+        cv2.putText(img, text, (4, top + (k + 1) * line_h - 3), cv2.FONT_HERSHEY_SIMPLEX, fs,
                     colour, th, cv2.LINE_AA)
 
 
 def draw_frame(img, *, view, frame, time_s, flags, measured=None, trail=None, shift=None,
                path=None, fitted=None, scene=None, scale=1.0, status=None):
-    """Draw everything the overlay shows on one frame: scene, trail, marks and banner.
+    """Draw everything the overlay shows on one frame: scene, trail, banner and marks.
 
     Parameters
     ----------
@@ -408,14 +423,19 @@ def draw_frame(img, *, view, frame, time_s, flags, measured=None, trail=None, sh
     draw_scene(img, scene, scale=scale, offset=-sh)
     if trail is not None:
         draw_trail(img, trail, scale=scale)
-    draw_marks(img, measured=measured, flags=flags or 0,
-               path=None if path is None else path + sh,
-               fitted=None if fitted is None else fitted + sh, scale=scale)
     if status is None:
         status = flag_text(flags) if flags is not None else "not tracked"
     colour = flag_colour(flags) if flags is not None else _GREY
+    avoid = None
+    if measured is not None:
+        # (the banner where it leaves the measured point's ring in view, and the marks
+        # drawn over it where no corner does: a small image)
+        avoid = (*_to_image(measured, scale), ring_radius(img) + 2.0)
     draw_banner(img, [f"{view}  frame {frame}  t {time_s:.5f} s", status],
-                [(255, 255, 255), colour])
+                [(255, 255, 255), colour], avoid=avoid)
+    draw_marks(img, measured=measured, flags=flags or 0,
+               path=None if path is None else path + sh,
+               fitted=None if fitted is None else fitted + sh, scale=scale)
 
 
 @dataclass(frozen=True)
