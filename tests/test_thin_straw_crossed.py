@@ -4,6 +4,9 @@ fitted end to end by the real ``vidtrack fit RUN --json --no-report`` against
 truth.json, as the straw alone is there (a file of its own so that the two files share
 the two cores)."""
 
+import json
+import shutil
+
 import pytest
 from synth_runs import check_behind_the_post
 from test_thin_straw import HERE, THIN, check_thin_straw, fitted_thin  # noqa: F401
@@ -28,3 +31,25 @@ def test_a_straw_cut_in_two_by_a_post_narrower_than_it_is_flagged(fitted_thin):
 
 def test_the_two_files_check_every_scene_once():
     assert sorted(HERE + CROSSED) == sorted(THIN)
+
+
+def test_the_flight_tracker_fits_the_thin_straw_a_rider_crosses(fitted_thin, tmp_path):
+    """The crossed thin straw with ``[track] engine = "flight"``: the rider runs 2-8 px
+    beside the straw in the top view, one blob with it over most of the flight. Chains
+    seeded from tracklets' central frames alone went over to the rider as the two parted
+    (104 top frames kept 3.5-8 px off, k4 32.1 against 21.3, 51 % off); seeded from whole
+    tracklets too, the linker's assignment holds the straw there: k within the suite's
+    tolerances (measured k4 21.03, 1.3 % low). Still kept off: 25 top frames up to
+    7.9 px, where the chain is on the rider before its first jump and between two
+    (docs/tracker.md, limits)."""
+    from conftest import assert_k_within, run_vidtrack
+
+    src, _ = fitted_thin("crossing")
+    out = tmp_path / "run"
+    shutil.copytree(src, out, ignore=shutil.ignore_patterns("vidtrack"))
+    scene = out / "scene.toml"
+    scene.write_text(scene.read_text() + '\n[track]\nengine = "flight"\n')
+    res = run_vidtrack("fit", out, "--json", "--no-report", "-q")
+    assert res.returncode == 0, res.stderr
+    truth = json.loads((out / "truth.json").read_text())
+    assert_k_within(json.loads(res.stdout), truth["truth"]["k"])

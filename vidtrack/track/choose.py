@@ -1,7 +1,8 @@
 """Step 3 of the flight tracker: the object is the chain of detections a flight explains.
 
-A **chain** holds at most one detection per frame. It is grown from a seed (a tracklet,
-or the detection at the user's ``target`` pixel) both ways in time: the next frame's
+A **chain** holds at most one detection per frame. It is grown from a seed (a
+tracklet's central frames, a whole tracklet, or the detection at the user's ``target``
+pixel) both ways in time: the next frame's
 position is extrapolated by a quadratic in time through the chain's last
 ``predict_frames`` points, and the detection taken is the one nearest it within a gate
 of ``max(gate_px, gate_sizes * size)`` pixels (half again for every frame missed), its
@@ -474,7 +475,13 @@ def _swapped(chains, detections, settings):
 
 
 def _seeds(detections, tracklets, settings):
-    """Seeds from the tracklets that travel most (their central frames)."""
+    """Seeds from the tracklets that travel most, two from each longer than
+    ``predict_frames``: its central ``predict_frames`` frames, from which the chain's
+    own prediction grows it both ways, and the whole tracklet, grown beyond its ends (the
+    linker's assignment, made over every moving thing at once, kept where it reaches:
+    of two things side by side, the chain's prediction may go over to the other where
+    the linker does not); the flight scores choose among the chains. Each as (seed,
+    whole)."""
     good = [tr for tr in tracklets if len(tr) >= settings.link_min_frames]
     good.sort(key=lambda tr: (tr.travel() / max(np.median(tr.size), 1.0)) * len(tr),
               reverse=True)
@@ -483,7 +490,9 @@ def _seeds(detections, tracklets, settings):
         k = min(len(tr), settings.predict_frames)
         mid = len(tr) // 2
         a = max(0, mid - k // 2)
-        seeds.append(list(zip(tr.frames[a:a + k], tr.index[a:a + k])))
+        seeds.append((list(zip(tr.frames[a:a + k], tr.index[a:a + k])), False))
+        if len(tr) > k:
+            seeds.append((list(zip(tr.frames, tr.index)), True))
     return seeds
 
 
@@ -554,8 +563,10 @@ def choose(detections, tracklets, settings, *, target=None, frame_numbers=None,
         chain.score = _score(chain, settings, detections)
         return chain, []
     grown = []
-    for seed in _seeds(detections, tracklets, settings):
-        if any(c.pick[f] == j for c in grown for f, j in seed[:1]):
+    for seed, whole in _seeds(detections, tracklets, settings):
+        # (a seed that a chain grown already holds adds nothing: its first detection, or
+        # every one of a whole tracklet)
+        if all(any(c.pick[f] == j for c in grown) for f, j in (seed if whole else seed[:1])):
             continue
         chain = Chain(grow(detections, seed, settings), detections)
         chain.score = _score(chain, settings, detections)
