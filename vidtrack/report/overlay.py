@@ -15,9 +15,9 @@ Every frame of a view, in colour, with:
   labelled with its name, the ruler as a line between its ends with end ticks and its
   length;
 - a dark banner in the top-left corner (the bottom-left one where it would hide the
-  measured point and that one does not; the marks are drawn over it): the view, the frame number and its time, and
-  the flag names in the flag colour (``ok`` when unflagged, ``not tracked`` for a
-  frame outside the view's ``frames`` range).
+  measured point and that one does not; the marks are drawn over it): the view, the
+  frame number and its time, and the flag names in the flag colour (``ok`` when
+  unflagged, ``not tracked`` for a frame outside the view's ``frames`` range).
 
 The trail and the scene are pale (low saturation) so that the ring keeps the only
 saturated colour near the object. The same drawing is used for the contact sheet of

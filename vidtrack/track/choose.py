@@ -411,13 +411,19 @@ def _joined(a, b, detections, settings):
                      np.polyval(np.polyfit(pts - mid, src.v[pts], deg), 0.0)])
     if np.hypot(ends[0][0] - ends[1][0], ends[0][1] - ends[1][1]) > gate:
         return None
-    pick = np.full(a.pick.size, -1, np.int64)
-    pick[:ea[-1] + 1] = a.pick[:ea[-1] + 1]
-    pick[eb[0]:] = b.pick[eb[0]:]
-    both = Chain(pick, detections)
-    both.merged[:ea[-1] + 1] = a.merged[:ea[-1] + 1]
-    both.merged[eb[0]:] = b.merged[eb[0]:]
-    return both
+    return _spliced(a, int(ea[-1]) + 1, b, int(eb[0]), detections)
+
+
+def _spliced(first, upto, then, start, detections):
+    """The chain of ``first`` before frame position ``upto`` and of ``then`` from
+    ``start`` on (nothing between), each part with its ``merged`` frames."""
+    pick = np.full(first.pick.size, -1, np.int64)
+    pick[:upto] = first.pick[:upto]
+    pick[start:] = then.pick[start:]
+    chain = Chain(pick, detections)
+    chain.merged[:upto] = first.merged[:upto]
+    chain.merged[start:] = then.merged[start:]
+    return chain
 
 
 def _join(chains, detections, settings):
@@ -467,8 +473,7 @@ def _swapped(chains, detections, settings):
                         or np.count_nonzero(own[hi:]) < k):
                     continue
                 for first, then in ((a, b), (b, a)):
-                    chain = Chain(np.r_[first.pick[:hi], then.pick[hi:]], detections)
-                    chain.merged[:] = np.r_[first.merged[:hi], then.merged[hi:]]
+                    chain = _spliced(first, hi, then, hi, detections)
                     chain.score = _score(chain, settings, detections)
                     out.append(chain)
     return out
