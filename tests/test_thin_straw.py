@@ -58,8 +58,13 @@ def check_thin_straw(fitted_thin, name):
     by the pixel grid) and the fit was refused; the riding rider pulled unflagged frames
     up to 0.83 px off, the shadow up to 1.07 px; the crossing rider's fit was refused;
     the hard run exited 0 with frames 2.3 px off and k3 +6.5 %, k4 -7 %."""
-    run, res = fitted_thin(name)
-    least = THIN[name][1]
+    check_fitted(*fitted_thin(name), THIN[name][1])
+
+
+def check_fitted(run, res, least):
+    """``vidtrack fit``'s result ``res`` on ``run``: each view's frames from the release
+    on at least ``least`` unflagged, every unflagged frame within 0.5 px of the straw's
+    coverage centroid, k as tolerated."""
     assert res.returncode == 0, res.stderr.strip().splitlines()[-1:]
     truth = json.loads((run / "truth.json").read_text())
     record = json.loads(res.stdout)

@@ -4,12 +4,12 @@ fitted end to end by the real ``vidtrack fit RUN --json --no-report`` against
 truth.json, as the straw alone is there (a file of its own so that the two files share
 the two cores)."""
 
-import json
 import shutil
 
 import pytest
 from synth_runs import check_behind_the_post
-from test_thin_straw import HERE, THIN, check_thin_straw, fitted_thin  # noqa: F401
+from test_thin_straw import (HERE, THIN, check_fitted, check_thin_straw,  # noqa: F401
+                             fitted_thin)
 
 CROSSED = ["crossing", "shadow", "hard", "post"]
 
@@ -34,15 +34,18 @@ def test_the_two_files_check_every_scene_once():
 
 
 def test_the_flight_tracker_fits_the_thin_straw_a_rider_crosses(fitted_thin, tmp_path):
-    """The crossed thin straw with ``[track] engine = "flight"``: the rider runs 2-8 px
-    beside the straw in the top view, one blob with it over most of the flight. Chains
-    seeded from tracklets' central frames alone went over to the rider as the two parted
-    (104 top frames kept 3.5-8 px off, k4 32.1 against 21.3, 51 % off); seeded from whole
-    tracklets too, the linker's assignment holds the straw there: k within the suite's
-    tolerances (measured k4 21.03, 1.3 % low). Still kept off: 25 top frames up to
-    7.9 px, where the chain is on the rider before its first jump and between two
-    (docs/tracker.md, limits)."""
-    from conftest import assert_k_within, run_vidtrack
+    """The crossed thin straw with ``[track] engine = "flight"``, checked as the other
+    thin straws are (every unflagged frame within 0.5 px, k as tolerated). The rider
+    runs 2-8 px beside the straw in the top view, one blob with it over most of the
+    flight. Chains seeded from tracklets' central frames alone went over to the rider as
+    the two parted (104 top frames kept 3.5-8 px off, k4 32.1 against 21.3); seeded from
+    whole tracklets too, k4 21.03, but 25 top frames were still kept 3.1-7.9 px off: the
+    chain on the rider after release (the straw not seen apart from the blade) and over
+    frames 125-157 (between two jumps, frames that predict each other). Taken again
+    along its robust path (``choose._on_its_path``), the chain takes the straw's
+    detection there where there is one and leaves the others out of its flight,
+    flagged: none is kept off."""
+    from conftest import run_vidtrack
 
     src, _ = fitted_thin("crossing")
     out = tmp_path / "run"
@@ -50,6 +53,4 @@ def test_the_flight_tracker_fits_the_thin_straw_a_rider_crosses(fitted_thin, tmp
     scene = out / "scene.toml"
     scene.write_text(scene.read_text() + '\n[track]\nengine = "flight"\n')
     res = run_vidtrack("fit", out, "--json", "--no-report", "-q")
-    assert res.returncode == 0, res.stderr
-    truth = json.loads((out / "truth.json").read_text())
-    assert_k_within(json.loads(res.stdout), truth["truth"]["k"])
+    check_fitted(out, res, THIN["crossing"][1])

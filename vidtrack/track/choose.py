@@ -47,8 +47,8 @@ import numpy as np
 
 from vidtrack.errors import TrackError
 from vidtrack.track.detect import polarity
-from vidtrack.track.measure import moment_axes
-from vidtrack.track.path import extrapolate, local_quadratic, runs
+from vidtrack.track.measure import MINOR_FLOOR_PX, moment_axes
+from vidtrack.track.path import TUKEY, extrapolate, local_quadratic, robust_path, runs
 
 __all__ = ["Chain", "grow", "choose", "flight_segment", "mark_merged", "others_note"]
 
@@ -73,13 +73,29 @@ LEVEL_RATIO = 1.5
 #: A chain's flight is looked for from at most this many seeds along it.
 SEEDS_MAX = 16
 
+#: A chain's robust path (:func:`_on_its_path`) is fitted through its neighbours within
+#: this many ``path_window`` frames either side of each frame (48 by default, as the
+#: trend of a rod's profile, :func:`vidtrack.track.joined.hold_profile`): a run of
+#: frames on something else up to about a third of that window long has no say in it.
+PATH_WINDOWS = 8
+
+#: At most this many rounds of taking a chain again along its robust path.
+PATH_ROUNDS = 4
+
+#: A detection holds a point within this many of its spreads (its second moments'
+#: ellipse; a rod's end lies at 1.73 along): one off a chain's robust path that holds
+#: the path's point there holds the object, touched by something (a blade just left),
+#: and is kept for the measurement to take apart.
+REACH_SPREADS = 2.0
+
 
 class Chain:
     """A chain: ``pick[i]`` is the index of its detection in frame position ``i`` (-1:
     none), with its positions, sizes, shadow marks, weights and the spreads along its
     major and minor axes (px) per frame (NaN, False and 0 where it has none), its
-    ``merged`` frames (:func:`mark_merged`), and whether it was taken although
-    shadow-like (``shadow_like``: no other chain in flight, :func:`choose`)."""
+    ``merged`` frames (:func:`mark_merged`), its ``off_path`` frames (its detection
+    off its robust path, nothing on it: :func:`_on_its_path`), and whether it was taken
+    although shadow-like (``shadow_like``: no other chain in flight, :func:`choose`)."""
 
     def __init__(self, pick, detections):
         self.pick = pick
@@ -100,6 +116,7 @@ class Chain:
         self.score = 0.0
         self.explained = np.zeros(n, bool)
         self.merged = np.zeros(n, bool)
+        self.off_path = np.zeros(n, bool)
         self.shadow_like = False
 
     def _take(self, i, d):
@@ -319,13 +336,14 @@ def _score(chain, settings, detections, shadows=False):
     u, v = chain.u[idx], chain.v[idx]
     size = float(np.median(chain.size[idx]))
     uv = np.column_stack([u, v])
-    alone = ~chain.merged[idx]
+    alone = ~(chain.merged[idx] | chain.off_path[idx])
     pred, _ = local_quadratic(idx, uv, settings.path_window,
                               weights=None if alone.all() else alone.astype(float))
     res = np.hypot(*(pred - uv).T)
     ok = res <= max(settings.flight_residual_px, settings.flight_residual_sizes * size)
     ok &= ~np.array([bool(detections[i][chain.pick[i]]["border"]) for i in idx])
-    # (a detection of two objects merged where they cross tells neither's flight)
+    # (a detection of two objects merged where they cross tells neither's flight, nor
+    # does one off the chain's robust path)
     ok &= alone
     seg, length = flight_segment(idx.astype(float), uv, ok, settings, size,
                                  through=None if alone.all() else ~alone)
@@ -479,6 +497,92 @@ def _swapped(chains, detections, settings):
     return out
 
 
+def _on_its_path(chain, detections, settings):
+    """The chain, or the chain taken again along its own robust path where that
+    scores higher.
+
+    A chain grown frame by frame may go over to something beside the object for a
+    while and come back (a rider a few pixels beside a straw, of about its contrast:
+    the prediction, carried from a detection of the two merged, lands between them).
+    Locally the frames on the other thing predict each other, and only the two jumps
+    show. The chain's robust path (:func:`vidtrack.track.path.robust_path`, through its
+    frames not merged with another chain's, :data:`PATH_WINDOWS` ``* path_window``
+    either side, its scatter at least ``flag_floor_px``) sees through such a run. Each
+    frame in the span of the chain's flight, with the chain's frames on both sides
+    within ``path_window``, farther from that path than :data:`TUKEY`
+    scatters (a weight of 0) whose detection does not reach the path's point there
+    (:func:`_reaches`: a detection that does holds the object, touched by something)
+    takes the detection nearest the path where one lies
+    within that distance; else it keeps its detection, ``off_path``: the object is not
+    seen apart there, and the frame, as a merged one, tells nothing of its flight (its
+    score fits and scores round it) and is flagged OUTLIER. The new chain
+    replaces the old where its flight score is higher, and is taken again along its
+    own path, until the score no longer rises (a long run on the other thing pulls the
+    first path towards it: each round frees more of it)."""
+    for _ in range(PATH_ROUNDS):
+        taken = _taken_on_path(chain, detections, settings)
+        if taken is None or taken.score <= chain.score:
+            break
+        chain = taken
+    return chain
+
+
+def _reaches(det, point):
+    """Whether a detection's extent (the ellipse of :data:`REACH_SPREADS` of its
+    spreads, across at least ``MINOR_FLOOR_PX``) holds ``point``."""
+    angle, along, across = moment_axes(float(det["muu"]), float(det["mvv"]),
+                                       float(det["muv"]))
+    du, dv = point[0] - det["u"], point[1] - det["v"]
+    a = du * np.cos(angle) + dv * np.sin(angle)
+    b = -du * np.sin(angle) + dv * np.cos(angle)
+    return bool(a * a / max(along, MINOR_FLOOR_PX ** 2)
+                + b * b / max(across, MINOR_FLOOR_PX ** 2) <= REACH_SPREADS ** 2)
+
+
+def _taken_on_path(chain, detections, settings):
+    """One round of :func:`_on_its_path`: the chain taken again, scored; None where no
+    frame is off its path."""
+    ex = np.flatnonzero(chain.explained)
+    if ex.size < 3 or chain.score <= 0:
+        return None
+    own = chain.frames[~chain.merged[chain.frames]]
+    if own.size < 3:
+        return None
+    uv = np.column_stack([chain.u[own], chain.v[own]])
+    path, scatter = robust_path(own.astype(float), uv,
+                                PATH_WINDOWS * settings.path_window,
+                                floor=settings.flag_floor_px)
+    reach = TUKEY * scatter
+    # (a frame with the chain's own frames on both sides, within ``path_window``: at an
+    # end, the path is carried on from one side)
+    near = np.diff(own) <= settings.path_window
+    flanked = np.r_[False, near] & np.r_[near, False]
+    with np.errstate(invalid="ignore"):
+        off = ((np.hypot(*(uv - path).T) > reach) & (own >= ex[0]) & (own <= ex[-1])
+               & flanked)
+    if not off.any():
+        return None
+    pick = chain.pick.copy()
+    off_path = np.zeros(pick.size, bool)
+    for k in np.flatnonzero(off):
+        dets = detections[own[k]]
+        if _reaches(dets[pick[own[k]]], path[k]):
+            continue
+        dist = np.hypot(dets["u"] - path[k, 0], dets["v"] - path[k, 1])
+        j = int(np.argmin(dist))
+        if dist[j] <= reach:
+            pick[own[k]] = j
+        else:
+            off_path[own[k]] = True
+    if np.array_equal(pick, chain.pick) and np.array_equal(off_path, chain.off_path):
+        return None
+    taken = Chain(pick, detections)
+    taken.merged[:] = chain.merged
+    taken.off_path[:] = off_path
+    taken.score = _score(taken, settings, detections)
+    return taken
+
+
 def _seeds(detections, tracklets, settings):
     """Seeds from the tracklets that travel most, two from each longer than
     ``predict_frames``: its central ``predict_frames`` frames, from which the chain's
@@ -566,7 +670,7 @@ def choose(detections, tracklets, settings, *, target=None, frame_numbers=None,
         seed = _target_seed(detections, target, frame_numbers, what)
         chain = Chain(grow(detections, seed, settings), detections)
         chain.score = _score(chain, settings, detections)
-        return chain, []
+        return _on_its_path(chain, detections, settings), []
     grown = []
     for seed, whole in _seeds(detections, tracklets, settings):
         # (a seed that a chain grown already holds adds nothing: its first detection, or
@@ -587,7 +691,8 @@ def choose(detections, tracklets, settings, *, target=None, frame_numbers=None,
         if not any(np.count_nonzero((c.pick == chain.pick) & (c.pick >= 0))
                    > MAJORITY * min(c.frames.size, chain.frames.size) for c in chains):
             chains.append(chain)
-    chains = _join(chains, detections, settings)
+    chains = [_on_its_path(c, detections, settings)
+              for c in _join(chains, detections, settings)]
     if chains and not any(c.score > 0 for c in chains):
         # (a dark object on a plain wall is shadow-like: with nothing else in flight to
         # cast it, the flight of a shadow-like chain is the object's)

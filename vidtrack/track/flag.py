@@ -58,8 +58,8 @@ from vidtrack.track._flags import (APPEARANCE, BORDER, LOST, MERGED, OUTLIER, PR
 from vidtrack.track.choose import MAJORITY
 from vidtrack.track.joined import size_z
 from vidtrack.track.measure import residual_outliers
-from vidtrack.track.path import (clean_side, local_quadratic, neighbour_median, robust_scale,
-                                 runs)
+from vidtrack.track.path import (RAYLEIGH_MEDIAN, clean_side, local_quadratic,
+                                 neighbour_median, robust_scale, runs)
 from vidtrack.track.release import find_release as release_knot
 
 __all__ = ["judge", "REASONS", "REASON_COLUMN", "reason_codes"]
@@ -67,10 +67,6 @@ __all__ = ["judge", "REASONS", "REASON_COLUMN", "reason_codes"]
 #: The per-frame column of a track (and dataset of tracks.h5, column of tracks.csv)
 #: holding each frame's reason codes.
 REASON_COLUMN = "reason"
-
-#: The median of the distance of a 2-D normal point from its centre, in its sigmas: a
-#: distance's median over this is the per-axis scatter.
-RAYLEIGH_MEDIAN = 1.1774100225154747
 
 #: The reason codes of a frame (tracks.h5 and tracks.csv's ``reason``, in this order,
 #: joined by ``+``): more than the flag bits say, which test flagged it.
@@ -91,7 +87,8 @@ REASONS = {"lost": "no detection of the object in this frame (LOST)",
            "held": "over pixels where the object stood in nearly every frame the background "
                    "was taken from, which none shows without it: measured against the "
                    "object itself (APPEARANCE)",
-           "off-path": "off the local path of its neighbours (OUTLIER)",
+           "off-path": ("off the local path of its neighbours, or its detection off the chain's "
+                        "robust path with none on it: another thing's (OUTLIER)"),
            "blade": "where the blade sweeps (BLADE)",
            "predicted": "no detection inside the object's chain (hidden, or too faint): "
                         "its position is the path's through the clean frames either side "
@@ -421,7 +418,10 @@ def judge(chain, detections, n, settings, *, find_release=True, residual=None,
     crossed = chain.merged[idx]
     flags[idx[crossed]] |= MERGED
     reasons["merged"][idx[crossed]] = True
-    off, scatter = _path_outliers(idx, uv, settings, ~grown & ~crossed)
+    # (a detection off the chain's robust path, nothing on it: another thing's)
+    strayed = chain.off_path[idx]
+    off, scatter = _path_outliers(idx, uv, settings, ~grown & ~crossed & ~strayed)
+    off |= strayed
     flags[idx[off]] |= OUTLIER
     # (a frame only short of weight or size is suspect, not wrong: where the clean
     # frames round it predict it, it is kept)

@@ -38,7 +38,7 @@ from vidtrack.track.matte import MATTE_FRAMES, fit_sample
 from vidtrack.track.measure import (BAR_COLUMNS, bar_moments, beside_its_shadow,
                                     chain_shape, explained_frames, fit_shape,
                                     has_highlight, is_rod, measure_frame, moment_axes,
-                                    SHAPE_FRAMES)
+                                    MINOR_FLOOR_PX, SHAPE_FRAMES)
 from vidtrack.track.rod import END_COLUMNS, MIN_LENGTH_PX
 from vidtrack.track.settings import ALGORITHM_VERSION, TrackerSettings
 from vidtrack.track.steady import CAMERA_COLUMNS, Steadier
@@ -51,10 +51,6 @@ _AHEAD = 8
 #: Footage that fits in this many bytes is decoded once, held, and its background taken
 #: from the frames held; longer footage has its background samples read first.
 HOLD_BYTES = 96 * 2 ** 20
-
-#: The object's area, for ``stood_moved_share``: the ellipse of twice its spreads, its
-#: spread across taken at least this much (px: a thin rod seen edge on still has one).
-MINOR_FLOOR_PX = 0.5
 
 #: At most this many times the view is tracked again against a background taken without
 #: the object (the second places the object where it stood by the chain the first found).
@@ -442,6 +438,8 @@ def track_flight(source, *, settings=None, background=None, view=None, target=No
                 first, lambda k: get(int(samples[k])), _discs(chain, shape, samples, settings),
                 stood_share=settings.stood_share)
             moved = taken & (np.abs(redone.image - background.image) > detector.grow_level)
+            # (the object's area, for ``stood_moved_share``: the ellipse of twice its
+            # spreads)
             area = np.pi * 4.0 * float(shape.major) * max(float(shape.minor), MINOR_FLOOR_PX)
             if moved.sum() < settings.stood_moved_share * area:
                 break

@@ -346,6 +346,11 @@ def bar_moments(bar):
             along * s * s + across * c * c, (along - across) * c * s)
 
 
+#: An object's spread across is taken at least this much (px: a thin rod seen edge on
+#: still has one): for its area, and for whether a point lies within its extent.
+MINOR_FLOOR_PX = 0.5
+
+
 def moment_axes(muu, mvv, muv):
     """The angle (rad from +u towards +v) of the major axis of second central moments
     ``muu, mvv, muv`` (px^2), and the variances along the major and minor axes (px^2,

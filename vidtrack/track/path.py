@@ -14,11 +14,15 @@ import numpy as np
 
 from vidtrack.track.background import MAD_TO_SIGMA
 
-__all__ = ["local_quadratic", "robust_trend", "neighbour_median", "robust_scale",
+__all__ = ["local_quadratic", "robust_trend", "robust_path", "neighbour_median", "robust_scale",
            "clean_side", "extrapolate", "runs", "MAD_TO_SIGMA", "TUKEY"]
 
 #: Tukey's biweight tuning constant (in robust sigmas of the residuals).
 TUKEY = 4.685
+
+#: The median of the distance of a 2-D normal point from its centre, in its sigmas: a
+#: distance's median over this is the per-axis scatter.
+RAYLEIGH_MEDIAN = 1.1774100225154747
 
 
 def robust_scale(x, *, floor=0.0):
@@ -215,12 +219,63 @@ def robust_trend(t, y, window):
     """
     y = np.asarray(y, float)
     first = y if y.ndim == 1 else y[:, 0]
-    fit = neighbour_median(first, window)
-    for _ in range(TREND_ROUNDS):
-        r = first - fit
-        sigma = robust_scale(r, floor=1e-12)
+    def residual(fit):
+        return first - (fit if y.ndim == 1 else fit[:, 0])
+
+    return _reweighed(t, y, window, residual, lambda r: robust_scale(r, floor=1e-12))[0]
+
+
+def _reweighed(t, y, window, residual, scale, rounds=TREND_ROUNDS, settle=None):
+    """:func:`local_quadratic` through each point's neighbours weighed by Tukey's
+    biweight of ``residual(fit)`` over ``scale(residuals)``, ``rounds`` times (or until
+    no weight changes by more than ``settle``) from the neighbours' median of each
+    column. Returns (fit, the last weights' scale)."""
+    cols = y[:, None] if y.ndim == 1 else y
+    fit = np.column_stack([neighbour_median(c, window) for c in cols.T])
+    fit = fit[:, 0] if y.ndim == 1 else fit
+    sigma, before = float("nan"), None
+    for _ in range(rounds):
+        r = residual(fit)
+        sigma = scale(r)
         weights = np.where(np.isfinite(r),
                            np.clip(1.0 - (r / (TUKEY * sigma)) ** 2, 0.0, None) ** 2, 0.0)
-        pred, _ = local_quadratic(t, y, window, weights=weights)
-        fit = pred if y.ndim == 1 else pred[:, 0]
-    return pred
+        if settle is not None and before is not None and np.max(np.abs(weights - before),
+                                                                initial=0.0) <= settle:
+            break
+        before = weights
+        fit, _ = local_quadratic(t, y, window, weights=weights)
+    return fit, sigma
+
+
+#: :func:`robust_path` reweighs its points until no weight changes by more than
+#: :data:`PATH_SETTLE`, at most :data:`PATH_ROUNDS` times: a run of points on something
+#: else 4 px beside the path, a third of the window long, pulls its first fit (from the
+#: neighbours' median) half way to it, and six rounds free it.
+PATH_ROUNDS = 12
+PATH_SETTLE = 1e-3
+
+
+def robust_path(t, uv, window, *, floor):
+    """Each point of a 2-D path predicted by :func:`local_quadratic` through its
+    neighbours (leaving it out), weighed by Tukey's biweight (:data:`TUKEY` scatters)
+    of their distances from it, :data:`TREND_ROUNDS` times from their neighbours'
+    median, until the weights settle (:data:`PATH_ROUNDS`, :data:`PATH_SETTLE`): a run
+    of points on something else (a chain that went over to a thing beside the object
+    for a while and came back), where it is the smaller part of a window, has no say in
+    the path. The scatter is the distances' median over 1.1774 (a 2-D normal law's), at
+    least ``floor`` (px): the model's own misfit over a long window is not taken for an
+    error.
+
+    Returns
+    -------
+    (numpy.ndarray, float)
+        The (N, 2) points predicted (NaN where too few neighbours), and the scatter.
+    """
+    uv = np.asarray(uv, float)
+
+    def scale(r):
+        r = r[np.isfinite(r)]
+        return max(float(np.median(r)) / RAYLEIGH_MEDIAN if r.size else 0.0, float(floor))
+
+    return _reweighed(t, uv, window, lambda fit: np.hypot(*(uv - fit).T), scale,
+                      rounds=PATH_ROUNDS, settle=PATH_SETTLE)

@@ -16,7 +16,7 @@ from vidtrack.errors import VidtrackError
 __all__ = ["TrackerSettings", "ALGORITHM_VERSION"]
 
 #: Changes whenever the flight tracker's results may change for the same settings.
-ALGORITHM_VERSION = "flight-23"
+ALGORITHM_VERSION = "flight-24"
 
 
 @dataclass(frozen=True)
