@@ -284,8 +284,16 @@ def test_interrupted_fit_leaves_no_partial_file_and_reruns(tmp_path, two_view_ru
     proc = subprocess.Popen([sys.executable, "-m", "vidtrack", "fit", str(run)], env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
-    time.sleep(1.5)
-    os.killpg(proc.pid, signal.SIGINT)
+    # (interrupted while it tracks: once the worker for the second view runs. A fixed
+    # 1.5 s wait hit the interpreter still importing its site module on a loaded
+    # machine: "Fatal Python error: init_import_site", not vidtrack's handling)
+    deadline = time.monotonic() + 60.0
+    while (proc.poll() is None and time.monotonic() < deadline
+           and not [c for c in _session_members(proc.pid) if "spawn_main" in c]):
+        time.sleep(0.05)
+    time.sleep(0.2)
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode in (0, 130), err
     assert "Traceback" not in err and "leaked" not in err, err
