@@ -220,19 +220,17 @@ def robust_trend(t, y, window):
     y = np.asarray(y, float)
     first = y if y.ndim == 1 else y[:, 0]
     def residual(fit):
-        return first - (fit if y.ndim == 1 else fit[:, 0])
+        return first - (fit if fit.ndim == 1 else fit[:, 0])
 
-    return _reweighed(t, y, window, residual, lambda r: robust_scale(r, floor=1e-12))[0]
+    return _reweighed(t, y, window, neighbour_median(first, window), residual,
+                      lambda r: robust_scale(r, floor=1e-12))[0]
 
 
-def _reweighed(t, y, window, residual, scale, rounds=TREND_ROUNDS, settle=None):
+def _reweighed(t, y, window, fit, residual, scale, rounds=TREND_ROUNDS, settle=None):
     """:func:`local_quadratic` through each point's neighbours weighed by Tukey's
     biweight of ``residual(fit)`` over ``scale(residuals)``, ``rounds`` times (or until
-    no weight changes by more than ``settle``) from the neighbours' median of each
-    column. Returns (fit, the last weights' scale)."""
-    cols = y[:, None] if y.ndim == 1 else y
-    fit = np.column_stack([neighbour_median(c, window) for c in cols.T])
-    fit = fit[:, 0] if y.ndim == 1 else fit
+    no weight changes by more than ``settle``) from the first ``fit`` given. Returns
+    (fit, the last weights' scale)."""
     sigma, before = float("nan"), None
     for _ in range(rounds):
         r = residual(fit)
@@ -277,5 +275,7 @@ def robust_path(t, uv, window, *, floor):
         r = r[np.isfinite(r)]
         return max(float(np.median(r)) / RAYLEIGH_MEDIAN if r.size else 0.0, float(floor))
 
-    return _reweighed(t, uv, window, lambda fit: np.hypot(*(uv - fit).T), scale,
+    start = np.column_stack([neighbour_median(uv[:, 0], window),
+                             neighbour_median(uv[:, 1], window)])
+    return _reweighed(t, uv, window, start, lambda fit: np.hypot(*(uv - fit).T), scale,
                       rounds=PATH_ROUNDS, settle=PATH_SETTLE)
