@@ -227,6 +227,8 @@ def _process_main(conn, level=logging.WARNING):
     # Ctrl-C reaches the whole process group: the caller stops this process itself, by
     # SIGTERM, on which it exits as from an error (finalisers run: no leaked semaphore)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # born with SIGINT blocked (see ViewProcess): ignored now, a pending one is dropped
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     signal.signal(signal.SIGTERM, _stopped)
     _exit_with_parent()
     try:
@@ -302,6 +304,7 @@ class ViewProcess:
 
     def __init__(self):
         import multiprocessing
+        from multiprocessing import resource_tracker
 
         ctx = multiprocessing.get_context("spawn")
         self.name = None
@@ -309,7 +312,18 @@ class ViewProcess:
         level = logging.getLogger("vidtrack").getEffectiveLevel()
         self.proc = ctx.Process(target=_process_main, args=(child, level),
                                 name="vidtrack-worker", daemon=True)
-        self.proc.start()
+        # the process starts with SIGINT blocked (a signal mask outlives fork and exec):
+        # a Ctrl-C while its interpreter starts, before _process_main ignores SIGINT,
+        # would print a KeyboardInterrupt traceback from its imports. This process gets
+        # a SIGINT sent meanwhile once it unblocks it, and stops the worker as usual.
+        # multiprocessing's resource tracker, started first: starting it unblocks SIGINT
+        resource_tracker.ensure_running()
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            self.proc.start()
+        finally:
+            if signal.SIGINT not in blocked:
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
         child.close()
 
     def start(self, scene, folder, name, settings, *, quiet=True, report=False):
